@@ -1,0 +1,103 @@
+//! What every filter holds besides its covariance representation: the model,
+//! the noise, the clock, the held input, the mean and the update diagnostics,
+//! with the argument checks every filter makes the same way.
+
+use nalgebra::DVector;
+
+use crate::error::{check_len, FilterError, Stage};
+use crate::filter::Innovation;
+use crate::gaussian::Gaussian;
+use crate::model::Model;
+use crate::noise::Noise;
+
+#[derive(Debug, Clone)]
+pub(crate) struct Core<M> {
+    pub model: M,
+    pub noise: Noise,
+    pub t: f64,
+    /// The input of the last `predict`, used by `update` (`h(t, x, u)`).
+    pub u: DVector<f64>,
+    pub x: DVector<f64>,
+    /// The candidate mean of the step in progress, committed on success.
+    pub x_next: DVector<f64>,
+    pub innovation: Innovation,
+    /// Row by row, the measurement `z` as passed to `update`.
+    pub z: DVector<f64>,
+}
+
+impl<M: Model> Core<M> {
+    pub fn new(model: M, noise: Noise, t0: f64, prior: &Gaussian) -> Result<Self, FilterError> {
+        let n = model.state_dim();
+        let m = model.measurement_dim();
+        check_len("process noise Q", n, noise.state_dim())?;
+        check_len("measurement noise R", m, noise.measurement_dim())?;
+        prior.validate(n)?;
+        if !t0.is_finite() {
+            return Err(FilterError::InvalidSetting(format!("initial time must be finite, got {t0}")));
+        }
+        Ok(Self {
+            u: DVector::zeros(model.input_dim()),
+            x: prior.mean.clone(),
+            x_next: DVector::zeros(n),
+            innovation: Innovation::new(m),
+            z: DVector::zeros(m),
+            model,
+            noise,
+            t: t0,
+        })
+    }
+
+    pub fn n(&self) -> usize {
+        self.x.len()
+    }
+
+    pub fn m(&self) -> usize {
+        self.z.len()
+    }
+
+    /// Checks `u` and `dt` and holds `u` for the update.
+    pub fn begin_predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+        check_len("input u", self.u.len(), u.len())?;
+        if !(dt > 0.0 && dt.is_finite()) {
+            return Err(FilterError::InvalidSetting(format!("predict: time step must be positive and finite, got {dt}")));
+        }
+        if u.iter().any(|v| !v.is_finite()) {
+            return Err(FilterError::NonFinite { stage: Stage::Predict, quantity: "input u" });
+        }
+        self.u.copy_from_slice(u);
+        Ok(())
+    }
+
+    /// Checks `z`, keeps a copy and selects its usable rows; returns their number.
+    pub fn begin_update(&mut self, z: &[f64]) -> Result<usize, FilterError> {
+        check_len("measurement z", self.m(), z.len())?;
+        self.z.copy_from_slice(z);
+        Ok(self.innovation.select_rows(z))
+    }
+
+    pub fn check_noise(&self, noise: &Noise) -> Result<(), FilterError> {
+        check_len("process noise Q", self.n(), noise.state_dim())?;
+        check_len("measurement noise R", self.m(), noise.measurement_dim())
+    }
+
+    pub fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
+        prior.validate(self.n())?;
+        if !t0.is_finite() {
+            return Err(FilterError::InvalidSetting(format!("initial time must be finite, got {t0}")));
+        }
+        self.t = t0;
+        self.x.copy_from(&prior.mean);
+        self.u.fill(0.0);
+        self.innovation.record_none();
+        Ok(())
+    }
+}
+
+/// `Err(NonFinite)` unless every value is finite.
+pub(crate) fn ensure_finite<'a>(values: impl IntoIterator<Item = &'a f64>, stage: Stage, quantity: &'static str) -> Result<(), FilterError> {
+    if values.into_iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(FilterError::NonFinite { stage, quantity })
+    }
+}

@@ -1,0 +1,149 @@
+//! The filters, each running any [`Model`](crate::Model), behind one trait.
+//!
+//! | type | method | square root of P |
+//! |---|---|---|
+//! | [`CubatureKalman`] | CKF, 2n cubature points | Cholesky |
+//! | [`SquareRootCubature`] | SRCKF, propagates `S` with `Tria` | QR (never re-factorises P) |
+//! | [`SvdCubature`] | SVD-CKF | `U·√Σ` from the SVD of P |
+//! | [`UnscentedKalman`] | scaled UKF, 2n+1 points | Cholesky |
+//! | [`ExtendedKalman`] | EKF, central finite-difference Jacobians | — |
+
+mod core;
+mod correction;
+mod covariance_root;
+mod ekf;
+mod innovation;
+mod sigma_point;
+mod sr_ckf;
+
+mod ckf;
+mod svd_ckf;
+mod ukf;
+
+use std::fmt;
+use std::str::FromStr;
+
+use nalgebra::{DMatrix, DVector};
+
+pub use covariance_root::{CholeskyRoot, CovarianceRoot, SvdRoot};
+pub use ekf::ExtendedKalman;
+pub use innovation::Innovation;
+pub use sigma_point::SigmaPointKalman;
+pub use sr_ckf::SquareRootCubature;
+
+pub use ckf::CubatureKalman;
+pub use svd_ckf::SvdCubature;
+pub use ukf::UnscentedKalman;
+
+use crate::error::FilterError;
+use crate::gaussian::Gaussian;
+use crate::noise::Noise;
+
+/// What every filter offers a driver (a study runner, an FMU): one
+/// predict/update cycle per sample and read access to the belief.
+///
+/// `predict` and `update` are transactional: on `Err` the belief is unchanged.
+pub trait StateEstimator {
+    /// Which method this is.
+    fn kind(&self) -> FilterKind;
+    /// State dimension `n`.
+    fn state_dim(&self) -> usize;
+    /// Measurement dimension `m`.
+    fn measurement_dim(&self) -> usize;
+    /// The time of the current belief.
+    fn time(&self) -> f64;
+    /// Time update over `dt > 0` with input `u` (held for the next `update`).
+    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError>;
+    /// Measurement update. Non-finite entries of `z` (NaN: missing) are left
+    /// out and only the other rows are used; a fully missing `z` changes nothing.
+    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError>;
+    /// The state estimate `x̂`.
+    fn mean(&self) -> &DVector<f64>;
+    /// Writes the covariance `P` into `out` (`n × n`), without allocating.
+    fn write_covariance(&self, out: &mut DMatrix<f64>);
+    /// The variance `P[i, i]`.
+    fn variance(&self, i: usize) -> f64;
+    /// The square root of `P` the filter propagates, if it propagates one.
+    fn sqrt_covariance(&self) -> Option<&DMatrix<f64>> {
+        None
+    }
+    /// Diagnostics of the last measurement update.
+    fn innovation(&self) -> &Innovation;
+    /// The noise covariances in use.
+    fn noise(&self) -> &Noise;
+    /// Replaces `Q` and `R` (tuning between steps).
+    fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError>;
+    /// Restarts from `prior` at time `t0`, keeping the buffers.
+    fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
+
+    /// The covariance `P` as a new matrix.
+    fn covariance(&self) -> DMatrix<f64> {
+        let n = self.state_dim();
+        let mut p = DMatrix::zeros(n, n);
+        self.write_covariance(&mut p);
+        p
+    }
+}
+
+/// The filter methods, for configuration by name (`"srckf"`, …).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FilterKind {
+    /// Cubature Kalman filter (Cholesky).
+    Ckf,
+    /// Square-root cubature Kalman filter.
+    SrCkf,
+    /// Cubature Kalman filter with the SVD as square root.
+    SvdCkf,
+    /// Scaled unscented Kalman filter.
+    Ukf,
+    /// Extended Kalman filter with finite-difference Jacobians.
+    Ekf,
+}
+
+impl FilterKind {
+    /// Every kind, in a fixed order.
+    pub const ALL: [FilterKind; 5] = [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
+
+    /// The short name used in tables and settings.
+    pub fn name(self) -> &'static str {
+        match self {
+            FilterKind::Ckf => "CKF",
+            FilterKind::SrCkf => "SRCKF",
+            FilterKind::SvdCkf => "SVD-CKF",
+            FilterKind::Ukf => "UKF",
+            FilterKind::Ekf => "EKF",
+        }
+    }
+}
+
+impl fmt::Display for FilterKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for FilterKind {
+    type Err = FilterError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let key: String = s.chars().filter(|c| c.is_ascii_alphanumeric()).collect::<String>().to_ascii_lowercase();
+        Self::ALL.into_iter().find(|k| k.name().replace('-', "").to_ascii_lowercase() == key).ok_or_else(|| {
+            FilterError::InvalidSetting(format!("unknown filter '{s}'; expected one of CKF, SRCKF, SVD-CKF, UKF, EKF"))
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_parse_from_their_names_in_any_case() {
+        for kind in FilterKind::ALL {
+            assert_eq!(kind.name().parse::<FilterKind>().unwrap(), kind);
+            assert_eq!(kind.name().to_lowercase().parse::<FilterKind>().unwrap(), kind);
+        }
+        assert_eq!("svd_ckf".parse::<FilterKind>().unwrap(), FilterKind::SvdCkf);
+        assert!("kalman".parse::<FilterKind>().unwrap_err().to_string().contains("expected one of"));
+    }
+}

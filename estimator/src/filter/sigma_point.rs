@@ -1,0 +1,278 @@
+//! The covariance-form sigma-point Kalman filter, generic in its point set
+//! (cubature or scaled unscented) and in how it takes the square root of `P`
+//! (Cholesky or SVD). CKF, SVD-CKF and UKF are instances of it.
+//!
+//! Each cycle follows Arasaratnam & Haykin (2009), Algorithm 1:
+//!
+//! ```text
+//! predict:  A·Aᵀ = P,  Xᵢ = x̂ ± c·A·eⱼ (and x̂),  Yᵢ = φ(Xᵢ)
+//!           x̂⁻ = Σ wᵢ·Yᵢ,   P⁻ = Σ wᶜᵢ·(Yᵢ − x̂⁻)(Yᵢ − x̂⁻)ᵀ + Q
+//! update:   A·Aᵀ = P⁻, Xᵢ = x̂⁻ ± c·A·eⱼ,  Zᵢ = h(Xᵢ)
+//!           ẑ = Σ wᵢ·Zᵢ,   S = Σ wᶜᵢ·(Zᵢ − ẑ)(Zᵢ − ẑ)ᵀ + R,   C = Σ wᶜᵢ·(Xᵢ − x̂⁻)(Zᵢ − ẑ)ᵀ
+//!           then the Kalman correction (see `correction.rs`).
+//! ```
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{FilterError, Stage};
+use crate::filter::core::{ensure_finite, Core};
+use crate::filter::correction::Correction;
+use crate::filter::covariance_root::CovarianceRoot;
+use crate::filter::{FilterKind, Innovation, StateEstimator};
+use crate::gaussian::Gaussian;
+use crate::linalg::{axpy, symmetrize};
+use crate::model::Model;
+use crate::noise::Noise;
+use crate::points::SigmaPoints;
+
+/// A sigma-point Kalman filter with a full covariance `P`.
+///
+/// Use it through its named instances [`CubatureKalman`](crate::CubatureKalman),
+/// [`SvdCubature`](crate::SvdCubature) and [`UnscentedKalman`](crate::UnscentedKalman).
+#[derive(Debug, Clone)]
+pub struct SigmaPointKalman<M, R> {
+    kind: FilterKind,
+    core: Core<M>,
+    points: SigmaPoints,
+    root: R,
+    p: DMatrix<f64>,
+    p_next: DMatrix<f64>,
+    /// The square root of `P` used to spread the points.
+    a: DMatrix<f64>,
+    /// Points (`n × N`), then their deviations from the mean.
+    xs: DMatrix<f64>,
+    /// Propagated points (`n × N`), then their deviations.
+    ys: DMatrix<f64>,
+    /// Measurement points on the used rows (`m × N`, leading dimension `m`).
+    zs: DMatrix<f64>,
+    z_point: DVector<f64>,
+    correction: Correction,
+}
+
+impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
+    pub(crate) fn with_points(
+        kind: FilterKind,
+        model: M,
+        noise: Noise,
+        prior: &Gaussian,
+        points: SigmaPoints,
+    ) -> Result<Self, FilterError> {
+        let core = Core::new(model, noise, 0.0, prior)?;
+        let (n, m, count) = (core.n(), core.m(), points.len());
+        Ok(Self {
+            kind,
+            points,
+            root: R::new(n),
+            p: prior.covariance.clone(),
+            p_next: DMatrix::zeros(n, n),
+            a: DMatrix::zeros(n, n),
+            xs: DMatrix::zeros(n, count),
+            ys: DMatrix::zeros(n, count),
+            zs: DMatrix::zeros(m, count),
+            z_point: DVector::zeros(m),
+            correction: Correction::new(n, m),
+            core,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &M {
+        &self.core.model
+    }
+
+    /// The model, to change its parameters between steps.
+    pub fn model_mut(&mut self) -> &mut M {
+        &mut self.core.model
+    }
+
+    /// The point set in use.
+    pub fn points(&self) -> &SigmaPoints {
+        &self.points
+    }
+
+    /// Spreads the points around `x` with the square root of `p`.
+    fn spread(&mut self, stage: Stage) -> Result<(), FilterError> {
+        let x = &self.core.x;
+        self.root
+            .factor(&self.p, &mut self.a)
+            .map_err(|_| FilterError::NotPositiveDefinite { stage, matrix: "state covariance P" })?;
+        let n = x.len();
+        let c = self.points.spread();
+        let xs = self.xs.as_mut_slice();
+        let a = self.a.as_slice();
+        for j in 0..n {
+            let col = &a[j * n..(j + 1) * n];
+            for i in 0..n {
+                xs[j * n + i] = x[i] + c * col[i];
+                xs[(n + j) * n + i] = x[i] - c * col[i];
+            }
+        }
+        if self.points.center().is_some() {
+            xs[2 * n * n..(2 * n + 1) * n].copy_from_slice(x.as_slice());
+        }
+        Ok(())
+    }
+}
+
+impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
+    fn kind(&self) -> FilterKind {
+        self.kind
+    }
+
+    fn state_dim(&self) -> usize {
+        self.core.n()
+    }
+
+    fn measurement_dim(&self) -> usize {
+        self.core.m()
+    }
+
+    fn time(&self) -> f64 {
+        self.core.t
+    }
+
+    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+        self.core.begin_predict(u, dt)?;
+        self.spread(Stage::Predict)?;
+        let n = self.core.n();
+        let count = self.points.len();
+        let t = self.core.t;
+        for i in 0..count {
+            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
+            let y = &mut self.ys.as_mut_slice()[i * n..(i + 1) * n];
+            self.core.model.transition(t, dt, x, self.core.u.as_slice(), y);
+        }
+        ensure_finite(self.ys.iter(), Stage::Predict, "propagated sigma points")?;
+        weighted_mean(&self.ys, &self.points, self.core.x_next.as_mut_slice());
+        subtract_mean(&mut self.ys, self.core.x_next.as_slice());
+        self.p_next.copy_from(self.core.noise.q());
+        add_weighted_outer_products(self.p_next.as_mut_slice(), n, &self.ys, n, &self.ys, n, &self.points);
+        symmetrize(&mut self.p_next);
+        ensure_finite(self.p_next.iter(), Stage::Predict, "predicted covariance P")?;
+        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
+        std::mem::swap(&mut self.p, &mut self.p_next);
+        self.core.t = t + dt;
+        Ok(())
+    }
+
+    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
+        let mv = self.core.begin_update(z)?;
+        if mv == 0 {
+            self.core.innovation.record_none();
+            return Ok(&self.core.innovation);
+        }
+        self.spread(Stage::Update)?;
+        let (n, m, count) = (self.core.n(), self.core.m(), self.points.len());
+        for i in 0..count {
+            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
+            self.core.model.observe(self.core.t, x, self.core.u.as_slice(), self.z_point.as_mut_slice());
+            for (a, &row) in self.core.innovation.rows().iter().enumerate() {
+                self.zs[(a, i)] = self.z_point[row];
+            }
+        }
+        let used = (0..count).flat_map(|i| &self.zs.as_slice()[i * m..i * m + mv]);
+        ensure_finite(used, Stage::Update, "measurement sigma points")?;
+        let cr = &mut self.correction;
+        cr.z_hat.fill(0.0);
+        for i in 0..count {
+            axpy(self.points.mean_weight(i), &self.zs.as_slice()[i * m..i * m + mv], &mut cr.z_hat.as_mut_slice()[..mv]);
+        }
+        for i in 0..count {
+            let col = &mut self.zs.as_mut_slice()[i * m..i * m + mv];
+            for (v, zh) in col.iter_mut().zip(cr.z_hat.iter()) {
+                *v -= zh;
+            }
+        }
+        subtract_mean(&mut self.xs, self.core.x.as_slice());
+        let r = self.core.noise.r();
+        let rows = self.core.innovation.rows();
+        for (b, &rb) in rows.iter().enumerate() {
+            for (a, &ra) in rows.iter().enumerate() {
+                cr.s[(a, b)] = r[(ra, rb)];
+            }
+        }
+        add_weighted_outer_products(cr.s.as_mut_slice(), m, &self.zs, mv, &self.zs, mv, &self.points);
+        cr.c.fill(0.0);
+        add_weighted_outer_products(cr.c.as_mut_slice(), n, &self.xs, n, &self.zs, mv, &self.points);
+        cr.apply(&self.core.z, &self.core.x, &self.p, &mut self.core.x_next, &mut self.p_next, &mut self.core.innovation)?;
+        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
+        std::mem::swap(&mut self.p, &mut self.p_next);
+        Ok(&self.core.innovation)
+    }
+
+    fn mean(&self) -> &DVector<f64> {
+        &self.core.x
+    }
+
+    fn write_covariance(&self, out: &mut DMatrix<f64>) {
+        out.copy_from(&self.p);
+    }
+
+    fn variance(&self, i: usize) -> f64 {
+        self.p[(i, i)]
+    }
+
+    fn innovation(&self) -> &Innovation {
+        &self.core.innovation
+    }
+
+    fn noise(&self) -> &Noise {
+        &self.core.noise
+    }
+
+    fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError> {
+        self.core.check_noise(&noise)?;
+        self.core.noise = noise;
+        Ok(())
+    }
+
+    fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
+        self.core.reset(t0, prior)?;
+        self.p.copy_from(&prior.covariance);
+        Ok(())
+    }
+}
+
+/// `out = Σ wᵢ·colᵢ` with the points' mean weights.
+fn weighted_mean(points: &DMatrix<f64>, set: &SigmaPoints, out: &mut [f64]) {
+    let n = out.len();
+    out.fill(0.0);
+    for i in 0..set.len() {
+        axpy(set.mean_weight(i), &points.as_slice()[i * n..(i + 1) * n], out);
+    }
+}
+
+/// Subtracts `mean` from every column.
+fn subtract_mean(points: &mut DMatrix<f64>, mean: &[f64]) {
+    let n = mean.len();
+    for col in points.as_mut_slice().chunks_exact_mut(n) {
+        for (v, m) in col.iter_mut().zip(mean) {
+            *v -= m;
+        }
+    }
+}
+
+/// `out += Σ wᶜᵢ·aᵢ·bᵢᵀ` over the columns of `a` (first `rows_a` rows) and `b`
+/// (first `rows_b` rows); `out` has leading dimension `ld_out`.
+fn add_weighted_outer_products(
+    out: &mut [f64],
+    ld_out: usize,
+    a: &DMatrix<f64>,
+    rows_a: usize,
+    b: &DMatrix<f64>,
+    rows_b: usize,
+    set: &SigmaPoints,
+) {
+    let (lda, ldb) = (a.nrows(), b.nrows());
+    for i in 0..set.len() {
+        let w = set.covariance_weight(i);
+        if w == 0.0 {
+            continue;
+        }
+        let a_col = &a.as_slice()[i * lda..i * lda + rows_a];
+        let b_col = &b.as_slice()[i * ldb..i * ldb + rows_b];
+        for (c, bv) in b_col.iter().enumerate() {
+            axpy(w * bv, a_col, &mut out[c * ld_out..c * ld_out + rows_a]);
+        }
+    }
+}

@@ -1,0 +1,348 @@
+//! The square-root cubature Kalman filter (Arasaratnam & Haykin 2009,
+//! Algorithm 2; the paper of study S1, eqs. (9)–(23)). It propagates a
+//! lower-triangular `S` with `S·Sᵀ = P` and never forms or factorises `P`:
+//!
+//! ```text
+//! predict:  Xᵢ = x̂ ± √n·S·eⱼ,  Yᵢ = φ(Xᵢ),  x̂⁻ = Σ Yᵢ/2n
+//!           S⁻ = Tria([Y*, S_Q]),            Y* = [Yᵢ − x̂⁻]/√(2n)
+//! update:   Xᵢ = x̂⁻ ± √n·S⁻·eⱼ,  Zᵢ = h(Xᵢ),  ẑ = Σ Zᵢ/2n
+//!           γ = [Zᵢ − ẑ]/√(2n),  χ = [Xᵢ − x̂⁻]/√(2n)
+//!           S_zz = Tria([γ, S_R]),  P_xz = χ·γᵀ
+//!           W = (P_xz / S_zzᵀ) / S_zz           (two triangular solves)
+//!           x̂ = x̂⁻ + W·(z − ẑ),  S = Tria([χ − W·γ, W·S_R])
+//! ```
+//!
+//! `Tria` is a Householder QR (see `linalg/tria.rs`). The compound matrices are
+//! built transposed, one row per point, so that the QR runs down contiguous
+//! columns.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{FilterError, Stage};
+use crate::filter::core::{ensure_finite, Core};
+use crate::filter::{FilterKind, Innovation, StateEstimator};
+use crate::gaussian::Gaussian;
+use crate::linalg::{axpy, dot, solve_lower, solve_lower_transposed, tria};
+use crate::model::Model;
+use crate::noise::{psd_square_root, Noise};
+
+/// SRCKF. Keeps running where rounding would make the CKF's `P` indefinite.
+#[derive(Debug, Clone)]
+pub struct SquareRootCubature<M> {
+    core: Core<M>,
+    /// `S`, lower triangular with a non-negative diagonal.
+    s: DMatrix<f64>,
+    s_next: DMatrix<f64>,
+    /// Points (`n × 2n`).
+    xs: DMatrix<f64>,
+    /// Propagated points (`n × 2n`).
+    ys: DMatrix<f64>,
+    /// `[Y*, S_Q]ᵀ` (`3n × n`), then `[χ − W·γ, W·S_R]ᵀ` in `update_compound`.
+    predict_compound: DMatrix<f64>,
+    /// `[χ − W·γ, W·S_R]ᵀ` (`(2n + m) × n`).
+    update_compound: DMatrix<f64>,
+    /// Measurement points on the used rows (`m × 2n`).
+    zs: DMatrix<f64>,
+    z_point: DVector<f64>,
+    z_hat: DVector<f64>,
+    /// `γᵀ` (`2n × m`, first `mv` columns used).
+    gamma_t: DMatrix<f64>,
+    /// `[γ, S_R]ᵀ` (`(2n + m) × m`).
+    zz_compound: DMatrix<f64>,
+    /// `S_zz` (`m × m`, top-left `mv × mv` used).
+    s_zz: DMatrix<f64>,
+    /// `S_R` restricted to the used rows (`m × m`, top `mv` rows used).
+    s_r_used: DMatrix<f64>,
+    /// `Wᵀ` (`m × n`, top `mv` rows used).
+    w_t: DMatrix<f64>,
+    nu: DVector<f64>,
+    e: DVector<f64>,
+    s_innovation: DMatrix<f64>,
+}
+
+impl<M: Model> SquareRootCubature<M> {
+    /// An SRCKF starting from `prior` at time 0. `P₀` may be singular
+    /// (positive semi-definite); its square root comes from an eigen-decomposition.
+    pub fn new(model: M, noise: Noise, prior: &Gaussian) -> Result<Self, FilterError> {
+        let core = Core::new(model, noise, 0.0, prior)?;
+        let (n, m) = (core.n(), core.m());
+        let mut filter = Self {
+            s: DMatrix::zeros(n, n),
+            s_next: DMatrix::zeros(n, n),
+            xs: DMatrix::zeros(n, 2 * n),
+            ys: DMatrix::zeros(n, 2 * n),
+            predict_compound: DMatrix::zeros(3 * n, n),
+            update_compound: DMatrix::zeros(2 * n + m, n),
+            zs: DMatrix::zeros(m, 2 * n),
+            z_point: DVector::zeros(m),
+            z_hat: DVector::zeros(m),
+            gamma_t: DMatrix::zeros(2 * n, m),
+            zz_compound: DMatrix::zeros(2 * n + m, m),
+            s_zz: DMatrix::zeros(m, m),
+            s_r_used: DMatrix::zeros(m, m),
+            w_t: DMatrix::zeros(m, n),
+            nu: DVector::zeros(m),
+            e: DVector::zeros(m),
+            s_innovation: DMatrix::zeros(m, m),
+            core,
+        };
+        filter.set_sqrt_from(&prior.covariance)?;
+        Ok(filter)
+    }
+
+    /// The model.
+    pub fn model(&self) -> &M {
+        &self.core.model
+    }
+
+    /// The model, to change its parameters between steps.
+    pub fn model_mut(&mut self) -> &mut M {
+        &mut self.core.model
+    }
+
+    /// `S ← Tria(root(P₀))`: a triangular square root of a PSD matrix.
+    fn set_sqrt_from(&mut self, p0: &DMatrix<f64>) -> Result<(), FilterError> {
+        let n = self.core.n();
+        let root = psd_square_root("initial covariance", p0)?;
+        let mut at = root.transpose();
+        tria(at.as_mut_slice(), n, n, n, self.s.as_mut_slice(), n);
+        Ok(())
+    }
+
+    /// Spreads `xs = x̂ ± √n·S·eⱼ`.
+    fn spread(&mut self) {
+        let n = self.core.n();
+        let c = (n as f64).sqrt();
+        let x = self.core.x.as_slice();
+        let s = self.s.as_slice();
+        let xs = self.xs.as_mut_slice();
+        for j in 0..n {
+            let col = &s[j * n..(j + 1) * n];
+            for i in 0..n {
+                xs[j * n + i] = x[i] + c * col[i];
+                xs[(n + j) * n + i] = x[i] - c * col[i];
+            }
+        }
+    }
+}
+
+impl<M: Model> StateEstimator for SquareRootCubature<M> {
+    fn kind(&self) -> FilterKind {
+        FilterKind::SrCkf
+    }
+
+    fn state_dim(&self) -> usize {
+        self.core.n()
+    }
+
+    fn measurement_dim(&self) -> usize {
+        self.core.m()
+    }
+
+    fn time(&self) -> f64 {
+        self.core.t
+    }
+
+    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+        self.core.begin_predict(u, dt)?;
+        self.spread();
+        let n = self.core.n();
+        let t = self.core.t;
+        for i in 0..2 * n {
+            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
+            let y = &mut self.ys.as_mut_slice()[i * n..(i + 1) * n];
+            self.core.model.transition(t, dt, x, self.core.u.as_slice(), y);
+        }
+        ensure_finite(self.ys.iter(), Stage::Predict, "propagated cubature points")?;
+        let x_next = self.core.x_next.as_mut_slice();
+        x_next.fill(0.0);
+        let w = 0.5 / n as f64;
+        for col in self.ys.as_slice().chunks_exact(n) {
+            axpy(w, col, x_next);
+        }
+        // Rows 0..2n of the transposed compound: (Yᵢ − x̂⁻)ᵀ/√(2n); rows 2n..3n: S_Qᵀ.
+        let ld = 3 * n;
+        let scale = w.sqrt();
+        let at = self.predict_compound.as_mut_slice();
+        let ys = self.ys.as_slice();
+        let sq = self.core.noise.q_sqrt().as_slice();
+        for r in 0..n {
+            let col = &mut at[r * ld..(r + 1) * ld];
+            for i in 0..2 * n {
+                col[i] = (ys[i * n + r] - x_next[r]) * scale;
+            }
+            for k in 0..n {
+                col[2 * n + k] = sq[k * n + r];
+            }
+        }
+        tria(at, ld, ld, n, self.s_next.as_mut_slice(), n);
+        ensure_finite(self.s_next.iter(), Stage::Predict, "predicted square-root covariance S")?;
+        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
+        std::mem::swap(&mut self.s, &mut self.s_next);
+        self.core.t = t + dt;
+        Ok(())
+    }
+
+    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
+        let mv = self.core.begin_update(z)?;
+        if mv == 0 {
+            self.core.innovation.record_none();
+            return Ok(&self.core.innovation);
+        }
+        self.spread();
+        let (n, m) = (self.core.n(), self.core.m());
+        let n_pts = 2 * n;
+        let scale = (0.5 / n as f64).sqrt();
+        let rows = self.core.innovation.rows();
+
+        // Measurement points on the used rows, their mean ẑ, and γᵀ.
+        for i in 0..n_pts {
+            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
+            self.core.model.observe(self.core.t, x, self.core.u.as_slice(), self.z_point.as_mut_slice());
+            for (a, &row) in rows.iter().enumerate() {
+                self.zs[(a, i)] = self.z_point[row];
+            }
+        }
+        let used = (0..n_pts).flat_map(|i| &self.zs.as_slice()[i * m..i * m + mv]);
+        ensure_finite(used, Stage::Update, "measurement cubature points")?;
+        let z_hat = &mut self.z_hat.as_mut_slice()[..mv];
+        z_hat.fill(0.0);
+        for i in 0..n_pts {
+            axpy(1.0 / n_pts as f64, &self.zs.as_slice()[i * m..i * m + mv], z_hat);
+        }
+        for a in 0..mv {
+            for i in 0..n_pts {
+                self.gamma_t[(i, a)] = (self.zs[(a, i)] - z_hat[a]) * scale;
+            }
+        }
+
+        // S_R on the used rows, and S_zz = Tria([γ, S_R]).
+        let s_r = self.core.noise.r_sqrt();
+        for k in 0..m {
+            for (a, &row) in rows.iter().enumerate() {
+                self.s_r_used[(a, k)] = s_r[(row, k)];
+            }
+        }
+        let ld_zz = n_pts + m;
+        for a in 0..mv {
+            let col = &mut self.zz_compound.as_mut_slice()[a * ld_zz..(a + 1) * ld_zz];
+            col[..n_pts].copy_from_slice(&self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts]);
+            for k in 0..m {
+                col[n_pts + k] = self.s_r_used[(a, k)];
+            }
+        }
+        tria(self.zz_compound.as_mut_slice(), ld_zz, ld_zz, mv, self.s_zz.as_mut_slice(), m);
+
+        // χᵀ into the top of the update compound; Wᵀ = P_xzᵀ = γ·χᵀ, then the two solves.
+        let ld_u = n_pts + m;
+        for q in 0..n {
+            let col = &mut self.update_compound.as_mut_slice()[q * ld_u..q * ld_u + n_pts];
+            for (i, v) in col.iter_mut().enumerate() {
+                *v = (self.xs[(q, i)] - self.core.x[q]) * scale;
+            }
+        }
+        for q in 0..n {
+            let chi_q = &self.update_compound.as_slice()[q * ld_u..q * ld_u + n_pts];
+            for a in 0..mv {
+                self.w_t[(a, q)] = dot(&self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts], chi_q);
+            }
+        }
+        let s_zz = self.s_zz.as_slice();
+        let solved = solve_lower(s_zz, m, mv, self.w_t.as_mut_slice(), m, n)
+            && solve_lower_transposed(s_zz, m, mv, self.w_t.as_mut_slice(), m, n);
+        if !solved {
+            return Err(FilterError::NotPositiveDefinite { stage: Stage::Update, matrix: "innovation covariance S_zz" });
+        }
+
+        // x̂ = x̂⁻ + W·ν, and e = S_zz⁻¹·ν for the NIS.
+        for (a, &row) in rows.iter().enumerate() {
+            self.nu[a] = z[row] - z_hat[a];
+            self.e[a] = self.nu[a];
+        }
+        solve_lower(s_zz, m, mv, self.e.as_mut_slice(), m, 1);
+        let w_t = self.w_t.as_slice();
+        for q in 0..n {
+            self.core.x_next[q] = self.core.x[q] + dot(&w_t[q * m..q * m + mv], &self.nu.as_slice()[..mv]);
+        }
+
+        // S = Tria([χ − W·γ, W·S_R]): top rows χᵀ − γᵀ·Wᵀ, bottom rows S_R,usedᵀ·Wᵀ.
+        for q in 0..n {
+            let (top, bottom) = self.update_compound.as_mut_slice()[q * ld_u..(q + 1) * ld_u].split_at_mut(n_pts);
+            let w_q = &w_t[q * m..q * m + mv];
+            for (a, &w) in w_q.iter().enumerate() {
+                axpy(-w, &self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts], top);
+            }
+            for (k, v) in bottom.iter_mut().enumerate() {
+                *v = dot(&self.s_r_used.as_slice()[k * m..k * m + mv], w_q);
+            }
+        }
+        tria(self.update_compound.as_mut_slice(), ld_u, ld_u, n, self.s_next.as_mut_slice(), n);
+        ensure_finite(self.core.x_next.iter(), Stage::Update, "updated state")?;
+        ensure_finite(self.s_next.iter(), Stage::Update, "updated square-root covariance S")?;
+
+        // Diagnostics: S_innovation = S_zz·S_zzᵀ on the used rows.
+        for b in 0..mv {
+            for a in b..mv {
+                let k_max = b + 1;
+                let v: f64 = (0..k_max).map(|k| self.s_zz[(a, k)] * self.s_zz[(b, k)]).sum();
+                self.s_innovation[(a, b)] = v;
+                self.s_innovation[(b, a)] = v;
+            }
+        }
+        self.core.innovation.record(
+            z_hat,
+            self.nu.as_slice(),
+            self.s_innovation.as_slice(),
+            m,
+            self.s_zz.as_slice(),
+            m,
+            self.e.as_slice(),
+        );
+        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
+        std::mem::swap(&mut self.s, &mut self.s_next);
+        Ok(&self.core.innovation)
+    }
+
+    fn mean(&self) -> &DVector<f64> {
+        &self.core.x
+    }
+
+    fn write_covariance(&self, out: &mut DMatrix<f64>) {
+        let n = self.core.n();
+        for j in 0..n {
+            for i in j..n {
+                // S is lower triangular: (S·Sᵀ)ᵢⱼ = Σ_{k ≤ j} S_ik·S_jk.
+                let v: f64 = (0..=j).map(|k| self.s[(i, k)] * self.s[(j, k)]).sum();
+                out[(i, j)] = v;
+                out[(j, i)] = v;
+            }
+        }
+    }
+
+    fn variance(&self, i: usize) -> f64 {
+        (0..=i).map(|k| self.s[(i, k)].powi(2)).sum()
+    }
+
+    fn sqrt_covariance(&self) -> Option<&DMatrix<f64>> {
+        Some(&self.s)
+    }
+
+    fn innovation(&self) -> &Innovation {
+        &self.core.innovation
+    }
+
+    fn noise(&self) -> &Noise {
+        &self.core.noise
+    }
+
+    fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError> {
+        self.core.check_noise(&noise)?;
+        self.core.noise = noise;
+        Ok(())
+    }
+
+    fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
+        self.core.reset(t0, prior)?;
+        self.set_sqrt_from(&prior.covariance)
+    }
+}

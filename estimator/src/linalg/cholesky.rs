@@ -1,0 +1,122 @@
+//! Cholesky factorisation `A = L·Lᵀ` and the two triangular solves that use it.
+
+use super::{axpy, dot};
+
+/// Overwrites the lower triangle of the `n×n` matrix in `a` (leading dimension
+/// `ld`) by its Cholesky factor `L` and zeroes the strict upper triangle.
+///
+/// Returns the index of the first pivot that is not positive (or not finite)
+/// when `A` is not numerically positive definite; `a` is then garbage.
+pub(crate) fn cholesky_in_place(a: &mut [f64], ld: usize, n: usize) -> Result<(), usize> {
+    // Right-looking, column oriented: every inner loop runs down a contiguous column.
+    for j in 0..n {
+        let d = a[j * ld + j];
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(j);
+        }
+        let d = d.sqrt();
+        let (head, tail) = a.split_at_mut((j + 1) * ld);
+        let col_j = &mut head[j * ld..j * ld + n];
+        col_j[j] = d;
+        let inv = 1.0 / d;
+        for v in &mut col_j[j + 1..n] {
+            *v *= inv;
+        }
+        for k in j + 1..n {
+            let col_k = &mut tail[(k - j - 1) * ld..(k - j - 1) * ld + n];
+            let l_kj = col_j[k];
+            if l_kj != 0.0 {
+                axpy(-l_kj, &col_j[k..n], &mut col_k[k..n]);
+            }
+        }
+    }
+    for j in 1..n {
+        a[j * ld..j * ld + j].fill(0.0);
+    }
+    Ok(())
+}
+
+/// Solves `L·X = B` in place for a lower-triangular `L` (`n×n`, leading
+/// dimension `ldl`) and `n_rhs` right-hand sides stored as the columns of `b`
+/// (leading dimension `ldb`). Returns `false` on a zero diagonal.
+pub(crate) fn solve_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: usize, n_rhs: usize) -> bool {
+    for r in 0..n_rhs {
+        let x = &mut b[r * ldb..r * ldb + n];
+        for j in 0..n {
+            let d = l[j * ldl + j];
+            if d == 0.0 {
+                return false;
+            }
+            x[j] /= d;
+            let xj = x[j];
+            if xj != 0.0 {
+                axpy(-xj, &l[j * ldl + j + 1..j * ldl + n], &mut x[j + 1..n]);
+            }
+        }
+    }
+    true
+}
+
+/// Solves `Lᵀ·X = B` in place (see [`solve_lower`] for the layout).
+pub(crate) fn solve_lower_transposed(
+    l: &[f64],
+    ldl: usize,
+    n: usize,
+    b: &mut [f64],
+    ldb: usize,
+    n_rhs: usize,
+) -> bool {
+    for r in 0..n_rhs {
+        let x = &mut b[r * ldb..r * ldb + n];
+        for j in (0..n).rev() {
+            let d = l[j * ldl + j];
+            if d == 0.0 {
+                return false;
+            }
+            let s = dot(&l[j * ldl + j + 1..j * ldl + n], &x[j + 1..n]);
+            x[j] = (x[j] - s) / d;
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    fn spd(n: usize) -> DMatrix<f64> {
+        let a = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0 + if i == j { 3.0 } else { 0.0 });
+        &a * a.transpose() + DMatrix::identity(n, n)
+    }
+
+    #[test]
+    fn factor_reconstructs_the_matrix_and_matches_nalgebra() {
+        let a = spd(7);
+        let mut l = a.clone();
+        cholesky_in_place(l.as_mut_slice(), 7, 7).unwrap();
+        assert!((&l * l.transpose() - &a).norm() < 1e-12 * a.norm());
+        let reference = a.clone().cholesky().unwrap().l();
+        assert!((&l - reference).norm() < 1e-12 * a.norm());
+    }
+
+    #[test]
+    fn indefinite_matrix_names_its_pivot() {
+        let mut a = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
+        assert_eq!(cholesky_in_place(a.as_mut_slice(), 2, 2), Err(1));
+        let mut nan = DMatrix::from_element(1, 1, f64::NAN);
+        assert_eq!(cholesky_in_place(nan.as_mut_slice(), 1, 1), Err(0));
+    }
+
+    #[test]
+    fn solves_invert_the_factor() {
+        let a = spd(5);
+        let mut l = a.clone();
+        cholesky_in_place(l.as_mut_slice(), 5, 5).unwrap();
+        let b = DMatrix::from_fn(5, 3, |i, j| (i as f64) - 2.0 * j as f64);
+        let mut x = b.clone();
+        assert!(solve_lower(l.as_slice(), 5, 5, x.as_mut_slice(), 5, 3));
+        assert!(solve_lower_transposed(l.as_slice(), 5, 5, x.as_mut_slice(), 5, 3));
+        assert!((&a * &x - &b).norm() < 1e-10 * b.norm());
+    }
+}

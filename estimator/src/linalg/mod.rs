@@ -1,0 +1,57 @@
+//! Dense kernels the filters need, written to work in place on buffers the
+//! filter owns, so that a filter step allocates nothing.
+//!
+//! nalgebra's own `QR`, `SVD` and `SymmetricEigen` allocate their results on
+//! every call, which rules them out inside a simulator's step; matrix products
+//! and views still come from nalgebra. All matrices are column-major slices
+//! with a leading dimension (`ld`), so that a top-left block of a larger
+//! workspace (fewer valid measurement rows) is handled without copying.
+
+mod cholesky;
+mod symmetric_eigen;
+mod tria;
+
+pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_lower_transposed};
+pub use symmetric_eigen::SymmetricEigen;
+pub(crate) use tria::tria;
+
+/// Dot product with four accumulators (lets the compiler vectorise it).
+#[inline]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    debug_assert_eq!(a.len(), b.len());
+    let mut acc = [0.0_f64; 4];
+    let chunks = a.len() / 4;
+    for c in 0..chunks {
+        let i = 4 * c;
+        acc[0] += a[i] * b[i];
+        acc[1] += a[i + 1] * b[i + 1];
+        acc[2] += a[i + 2] * b[i + 2];
+        acc[3] += a[i + 3] * b[i + 3];
+    }
+    let mut sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    for i in 4 * chunks..a.len() {
+        sum += a[i] * b[i];
+    }
+    sum
+}
+
+/// `y += alpha * x`.
+#[inline]
+pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    debug_assert_eq!(x.len(), y.len());
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += alpha * xi;
+    }
+}
+
+/// Replaces a square matrix by its symmetric part, `(A + Aᵀ)/2`.
+pub(crate) fn symmetrize(a: &mut nalgebra::DMatrix<f64>) {
+    let n = a.nrows();
+    for j in 0..n {
+        for i in j + 1..n {
+            let m = 0.5 * (a[(i, j)] + a[(j, i)]);
+            a[(i, j)] = m;
+            a[(j, i)] = m;
+        }
+    }
+}

@@ -1,0 +1,11 @@
+//! The estimation models of the studies, and small models for tests and examples.
+
+mod linear;
+mod oscillator_2dof;
+mod piecewise;
+mod spring_chain;
+
+pub use linear::LinearGaussian;
+pub use oscillator_2dof::{Oscillator2Dof, Oscillator2DofLoad};
+pub use piecewise::PiecewiseLinear;
+pub use spring_chain::SpringChainForces;

@@ -1,0 +1,131 @@
+//! The noise covariances `Q` and `R` of one filter instance, validated once and
+//! kept with a square root each (the square-root filter needs them every step).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::FilterError;
+use crate::linalg::SymmetricEigen;
+
+/// Process noise `Q` (`n × n`) and measurement noise `R` (`m × m`).
+///
+/// Both must be symmetric positive semi-definite; zeros are allowed (a state
+/// without process noise, a "perfect" sensor), and the square-root and SVD
+/// filters cope with them. Square roots are `U·√Λ` from an eigen-decomposition,
+/// so singular matrices have one too.
+#[derive(Debug, Clone)]
+pub struct Noise {
+    q: DMatrix<f64>,
+    r: DMatrix<f64>,
+    q_sqrt: DMatrix<f64>,
+    r_sqrt: DMatrix<f64>,
+}
+
+impl Noise {
+    /// Full `Q` and `R`. Fails on a matrix that is not square, not finite, not
+    /// symmetric (relative 1e-12) or has an eigenvalue below `−1e-12·‖·‖`.
+    pub fn new(q: DMatrix<f64>, r: DMatrix<f64>) -> Result<Self, FilterError> {
+        let q_sqrt = psd_square_root("process noise Q", &q)?;
+        let r_sqrt = psd_square_root("measurement noise R", &r)?;
+        Ok(Self { q, r, q_sqrt, r_sqrt })
+    }
+
+    /// Diagonal `Q` and `R` from their diagonals (variances).
+    pub fn diagonal(q: &[f64], r: &[f64]) -> Result<Self, FilterError> {
+        Self::new(
+            DMatrix::from_diagonal(&DVector::from_column_slice(q)),
+            DMatrix::from_diagonal(&DVector::from_column_slice(r)),
+        )
+    }
+
+    /// `Q`.
+    pub fn q(&self) -> &DMatrix<f64> {
+        &self.q
+    }
+
+    /// `R`.
+    pub fn r(&self) -> &DMatrix<f64> {
+        &self.r
+    }
+
+    /// A square root `S_Q` with `S_Q·S_Qᵀ = Q`.
+    pub fn q_sqrt(&self) -> &DMatrix<f64> {
+        &self.q_sqrt
+    }
+
+    /// A square root `S_R` with `S_R·S_Rᵀ = R`.
+    pub fn r_sqrt(&self) -> &DMatrix<f64> {
+        &self.r_sqrt
+    }
+
+    /// The state dimension `Q` is for.
+    pub fn state_dim(&self) -> usize {
+        self.q.nrows()
+    }
+
+    /// The measurement dimension `R` is for.
+    pub fn measurement_dim(&self) -> usize {
+        self.r.nrows()
+    }
+}
+
+/// Validates a covariance-like matrix and returns a square root of it.
+pub(crate) fn psd_square_root(name: &str, m: &DMatrix<f64>) -> Result<DMatrix<f64>, FilterError> {
+    check_symmetric(name, m)?;
+    let n = m.nrows();
+    let mut eigen = SymmetricEigen::new(n);
+    eigen
+        .decompose(m)
+        .map_err(|_| FilterError::InvalidSetting(format!("{name}: eigen-decomposition did not converge")))?;
+    let scale = eigen.max_abs_value();
+    if eigen.min_value() < -1e-12 * scale {
+        return Err(FilterError::InvalidSetting(format!(
+            "{name} must be positive semi-definite; its smallest eigenvalue is {:e}",
+            eigen.min_value()
+        )));
+    }
+    let mut root = DMatrix::zeros(n, n);
+    eigen.write_svd_square_root(&mut root);
+    Ok(root)
+}
+
+/// Square, finite, symmetric to a relative 1e-12.
+pub(crate) fn check_symmetric(name: &str, m: &DMatrix<f64>) -> Result<(), FilterError> {
+    if !m.is_square() {
+        return Err(FilterError::InvalidSetting(format!("{name} must be square, got {}×{}", m.nrows(), m.ncols())));
+    }
+    if let Some(v) = m.iter().find(|v| !v.is_finite()) {
+        return Err(FilterError::InvalidSetting(format!("{name} has a non-finite entry ({v})")));
+    }
+    let scale = m.amax();
+    for j in 0..m.ncols() {
+        for i in j + 1..m.nrows() {
+            if (m[(i, j)] - m[(j, i)]).abs() > 1e-12 * scale {
+                return Err(FilterError::InvalidSetting(format!("{name} is not symmetric at ({i}, {j})")));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diagonal_noise_has_the_elementwise_square_root() {
+        let noise = Noise::diagonal(&[4.0, 0.0, 9.0], &[0.25]).unwrap();
+        assert_eq!(noise.q_sqrt().diagonal().as_slice(), &[2.0, 0.0, 3.0]);
+        assert_eq!(noise.r_sqrt()[(0, 0)], 0.5);
+    }
+
+    #[test]
+    fn rejects_negative_asymmetric_and_non_finite_matrices_with_a_reason() {
+        let err = Noise::diagonal(&[1.0, -1.0], &[1.0]).unwrap_err();
+        assert!(err.to_string().contains("process noise Q must be positive semi-definite"), "{err}");
+        let asym = DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0]);
+        let err = Noise::new(asym, DMatrix::identity(1, 1)).unwrap_err();
+        assert!(err.to_string().contains("not symmetric"), "{err}");
+        let err = Noise::diagonal(&[1.0], &[f64::NAN]).unwrap_err();
+        assert!(err.to_string().contains("measurement noise R has a non-finite entry"), "{err}");
+    }
+}
