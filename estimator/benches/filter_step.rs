@@ -1,1 +1,282 @@
-fn main() {}
+//! Cost of one filter cycle — `predict(&[], dt)` then `update(&z)` — for every
+//! filter kind (CKF, SRCKF, SVD-CKF, UKF with α = 1, β = 0, κ = 0, EKF) on two
+//! models:
+//!
+//! * `s1_6`: study S1, `Discretized::rk4(Oscillator2DofLoad::new(Oscillator2Dof::stiffness_nonlinear()), 1)`,
+//!   n = 6, m = 2;
+//! * `chain_24`: `Discretized::rk4(SpringChainForces::default(), 1)`, n = 24, m = 7;
+//!
+//! both at `dt = 0.005 s`. Benchmarks are named `step/<model>/<filter>`.
+//!
+//! The measurements are simulated once, before any timing: the same model from
+//! a non-zero initial state with seeded process noise, plus seeded measurement
+//! noise. The timed loop cycles through them; when the sequence wraps, the
+//! filter is reset (`StateEstimator::reset`) outside the timed region, so one
+//! iteration is exactly one predict + update.
+//!
+//! Before the criterion groups run, every filter is run over the whole sequence
+//! once (it must not fail), and the heap allocations per step (a counting
+//! global allocator, 1000 steps after construction and one warm-up step) are
+//! printed as `allocations per step: <model>/<filter> = <count>`.
+//!
+//! ```text
+//! cargo bench -p estimator --bench filter_step
+//! ```
+
+// The counting global allocator needs `unsafe impl GlobalAlloc`; nothing else here is unsafe.
+#![allow(unsafe_code)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::hint::black_box;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use criterion::Criterion;
+use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces};
+use estimator::{
+    CubatureKalman, Discretized, ExtendedKalman, FilterError, Gaussian, Model, Noise, SquareRootCubature,
+    StateEstimator, SvdCubature, UnscentedKalman, UnscentedParams,
+};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+/// Counts every `alloc`, `alloc_zeroed` and `realloc` call, then defers to [`System`].
+struct CountingAllocator;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: forwarded unchanged; the caller upholds `GlobalAlloc::alloc`'s contract.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: as for `alloc`.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was allocated by `System` with `layout` (every allocation goes through it).
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: as for `dealloc`; the caller upholds `GlobalAlloc::realloc`'s contract.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+/// Sample time of both models (s).
+const DT: f64 = 0.005;
+/// Length of the simulated measurement sequence (10 s).
+const STEPS: usize = 2000;
+/// Steps counted for the allocation figure (after one warm-up step).
+const ALLOC_STEPS: usize = 1000;
+
+/// A model, the filter tuning and a simulated measurement sequence.
+struct Case<M> {
+    name: &'static str,
+    model: M,
+    noise: Noise,
+    prior: Gaussian,
+    m: usize,
+    /// `STEPS` measurement vectors of length `m`, back to back.
+    z: Vec<f64>,
+}
+
+impl<M> Case<M> {
+    /// Measurement `k` of the sequence.
+    fn measurement(&self, k: usize) -> &[f64] {
+        &self.z[k * self.m..(k + 1) * self.m]
+    }
+}
+
+impl<M: Model + Clone> Case<M> {
+    /// Simulates `model` from `x0` with process noise of variances `q_true` and
+    /// adds measurement noise of variances `r_true`: measurement `k` is taken
+    /// at `t = (k + 1)·dt`, as a filter sees it after its `k + 1`-th predict.
+    #[allow(clippy::too_many_arguments)]
+    fn simulate(
+        name: &'static str,
+        model: M,
+        noise: Noise,
+        prior: Gaussian,
+        x0: &[f64],
+        q_true: &[f64],
+        r_true: &[f64],
+        seed: u64,
+    ) -> Self {
+        let (n, m) = (model.state_dim(), model.measurement_dim());
+        assert_eq!((x0.len(), q_true.len(), r_true.len()), (n, n, m), "{name}: inconsistent simulation settings");
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut truth = model.clone();
+        let (mut x, mut x_next, mut y) = (x0.to_vec(), vec![0.0; n], vec![0.0; m]);
+        let mut z = Vec::with_capacity(STEPS * m);
+        for k in 0..STEPS {
+            let t = k as f64 * DT;
+            truth.transition(t, DT, &x, &[], &mut x_next);
+            for (xi, (next, q)) in x.iter_mut().zip(x_next.iter().zip(q_true)) {
+                *xi = next + q.sqrt() * rng.sample::<f64, _>(StandardNormal);
+            }
+            truth.observe(t + DT, &x, &[], &mut y);
+            z.extend(y.iter().zip(r_true).map(|(yi, r)| yi + r.sqrt() * rng.sample::<f64, _>(StandardNormal)));
+        }
+        assert!(z.iter().all(|v| v.is_finite()), "{name}: the simulated measurements are not finite");
+        Self { name, model, noise, prior, m, z }
+    }
+
+    /// Builds each of the five filters and hands it to `visitor`.
+    fn for_each_filter<V: FilterVisitor>(&self, visitor: &mut V) {
+        let (model, noise, prior) = (|| self.model.clone(), || self.noise.clone(), &self.prior);
+        let ckf_equal = UnscentedParams { alpha: 1.0, beta: 0.0, kappa: 0.0 };
+        visitor.visit(self, "CKF", CubatureKalman::cubature(model(), noise(), prior));
+        visitor.visit(self, "SRCKF", SquareRootCubature::new(model(), noise(), prior));
+        visitor.visit(self, "SVD-CKF", SvdCubature::svd_cubature(model(), noise(), prior));
+        visitor.visit(self, "UKF", UnscentedKalman::unscented(model(), noise(), prior, ckf_equal));
+        visitor.visit(self, "EKF", ExtendedKalman::new(model(), noise(), prior));
+    }
+}
+
+/// Does something with one freshly built filter (monomorphised per filter type).
+trait FilterVisitor {
+    fn visit<M, F: StateEstimator>(&mut self, case: &Case<M>, kind: &str, filter: Result<F, FilterError>);
+}
+
+/// One predict + update with measurement `z`.
+#[inline]
+fn step<F: StateEstimator>(filter: &mut F, z: &[f64]) -> Result<(), FilterError> {
+    filter.predict(&[], DT)?;
+    black_box(filter.update(z)?);
+    Ok(())
+}
+
+/// Unwraps a construction result with a clear message.
+fn built<M, F>(case: &Case<M>, kind: &str, filter: Result<F, FilterError>) -> F {
+    filter.unwrap_or_else(|e| panic!("{}/{kind}: the filter could not be built: {e}", case.name))
+}
+
+/// Fails loudly when a step errs.
+fn checked_step<M, F: StateEstimator>(case: &Case<M>, kind: &str, filter: &mut F, k: usize) {
+    if let Err(e) = step(filter, case.measurement(k)) {
+        panic!("{}/{kind}: the filter failed at step {k} of {STEPS}: {e} (adjust Q/R/prior in the bench)", case.name);
+    }
+}
+
+/// Sanity run over the whole sequence, then the allocation count.
+struct CheckAndCountAllocations;
+
+impl FilterVisitor for CheckAndCountAllocations {
+    fn visit<M, F: StateEstimator>(&mut self, case: &Case<M>, kind: &str, filter: Result<F, FilterError>) {
+        let mut filter = built(case, kind, filter);
+        let mut nis = 0.0;
+        for k in 0..STEPS {
+            checked_step(case, kind, &mut filter, k);
+            if k >= 200 {
+                nis += filter.innovation().nis();
+            }
+        }
+        eprintln!(
+            "DEBUG {}/{kind}: mean NIS {:.3} (m={}), final mean {:.3?}",
+            case.name,
+            nis / (STEPS - 200) as f64,
+            case.m,
+            filter.mean().as_slice()
+        );
+        assert!(filter.mean().iter().all(|v| v.is_finite()), "{}/{kind}: the final estimate is not finite", case.name);
+
+        filter.reset(0.0, &case.prior).unwrap_or_else(|e| panic!("{}/{kind}: reset failed: {e}", case.name));
+        checked_step(case, kind, &mut filter, 0);
+        let before = ALLOCATIONS.load(Ordering::Relaxed);
+        for k in 1..=ALLOC_STEPS {
+            checked_step(case, kind, &mut filter, k);
+        }
+        let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;
+        println!("allocations per step: {}/{kind} = {}", case.name, allocations as f64 / ALLOC_STEPS as f64);
+    }
+}
+
+/// The timed benchmark: one iteration is one predict + update.
+struct Bench<'c>(&'c mut Criterion);
+
+impl FilterVisitor for Bench<'_> {
+    fn visit<M, F: StateEstimator>(&mut self, case: &Case<M>, kind: &str, filter: Result<F, FilterError>) {
+        let mut filter = built(case, kind, filter);
+        let mut next = 0usize;
+        let mut group = self.0.benchmark_group(format!("step/{}", case.name));
+        group.sample_size(50).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2));
+        group.bench_function(kind, |b| {
+            b.iter_custom(|iters| {
+                let mut elapsed = Duration::ZERO;
+                let mut left = iters;
+                while left > 0 {
+                    if next == STEPS {
+                        // End of the sequence: restart, outside the timed region.
+                        filter.reset(0.0, &case.prior).unwrap_or_else(|e| panic!("{}/{kind}: {e}", case.name));
+                        next = 0;
+                    }
+                    let run = left.min((STEPS - next) as u64) as usize;
+                    let start = Instant::now();
+                    for k in next..next + run {
+                        checked_step(case, kind, &mut filter, k);
+                    }
+                    elapsed += start.elapsed();
+                    next += run;
+                    left -= run as u64;
+                }
+                elapsed
+            })
+        });
+        group.finish();
+    }
+}
+
+/// Study S1: state `[z₁, z₂, F, ż₁, ż₂, Ḟ]`, measurements `[z̈₁, z̈₂]`.
+fn s1() -> Case<Discretized<Oscillator2DofLoad>> {
+    let model = Discretized::rk4(Oscillator2DofLoad::new(Oscillator2Dof::stiffness_nonlinear()), 1);
+    let noise = Noise::diagonal(&[1e-8, 1e-8, 1e-2, 1e-6, 1e-6, 10.0], &[1e-4, 1e-4]).expect("valid S1 noise");
+    let prior = Gaussian::diagonal(&[0.0; 6], &[1e-2, 1e-2, 100.0, 1e-2, 1e-2, 100.0]);
+    // The truth starts displaced (beyond the first breakpoint of k₁) and its
+    // load drifts as a second-order random walk.
+    let x0 = [0.15, 0.25, 2.0, 0.0, 0.0, 0.0];
+    let q_true = [0.0, 0.0, 0.0, 0.0, 0.0, 1e-3];
+    Case::simulate("s1_6", model, noise, prior, &x0, &q_true, &[1e-4, 1e-4], 1)
+}
+
+/// The 24-state chain: state `[z₁ … z₁₀, ż₁ … ż₁₀, F₁ … F₄]`, seven accelerometers.
+fn chain() -> Case<Discretized<SpringChainForces>> {
+    let model = Discretized::rk4(SpringChainForces::default(), 1);
+    let q: Vec<f64> = [1e-12; 10].into_iter().chain([1e-8; 10]).chain([1e2; 4]).collect();
+    let noise = Noise::diagonal(&q, &[1e-2; 7]).expect("valid chain noise");
+    let p0: Vec<f64> = [1e-4; 10].into_iter().chain([1e-1; 10]).chain([1e6; 4]).collect();
+    let prior = Gaussian::diagonal(&[0.0; 24], &p0);
+    // The truth starts with displaced, moving masses (relative velocities past
+    // the damper breakpoint) and forces that drift as random walks.
+    let mut x0 = [0.0; 24];
+    for i in 0..10 {
+        x0[i] = 1e-3 * (i as f64 + 1.0);
+        x0[10 + i] = if i % 2 == 0 { 0.3 } else { -0.2 };
+    }
+    x0[20..].copy_from_slice(&[500.0, -300.0, 200.0, 100.0]);
+    let q_true: Vec<f64> = [0.0; 20].into_iter().chain([1e2; 4]).collect();
+    Case::simulate("chain_24", model, noise, prior, &x0, &q_true, &[1e-2; 7], 2)
+}
+
+fn main() {
+    let (s1, chain) = (s1(), chain());
+
+    s1.for_each_filter(&mut CheckAndCountAllocations);
+    chain.for_each_filter(&mut CheckAndCountAllocations);
+
+    let mut criterion = Criterion::default().configure_from_args();
+    s1.for_each_filter(&mut Bench(&mut criterion));
+    chain.for_each_filter(&mut Bench(&mut criterion));
+    criterion.final_summary();
+}

@@ -59,7 +59,9 @@ impl<M: Model> Core<M> {
     pub fn begin_predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         check_len("input u", self.u.len(), u.len())?;
         if !(dt > 0.0 && dt.is_finite()) {
-            return Err(FilterError::InvalidSetting(format!("predict: time step must be positive and finite, got {dt}")));
+            return Err(FilterError::InvalidSetting(format!(
+                "predict: time step must be positive and finite, got {dt}"
+            )));
         }
         if u.iter().any(|v| !v.is_finite()) {
             return Err(FilterError::NonFinite { stage: Stage::Predict, quantity: "input u" });
@@ -94,7 +96,11 @@ impl<M: Model> Core<M> {
 }
 
 /// `Err(NonFinite)` unless every value is finite.
-pub(crate) fn ensure_finite<'a>(values: impl IntoIterator<Item = &'a f64>, stage: Stage, quantity: &'static str) -> Result<(), FilterError> {
+pub(crate) fn ensure_finite<'a>(
+    values: impl IntoIterator<Item = &'a f64>,
+    stage: Stage,
+    quantity: &'static str,
+) -> Result<(), FilterError> {
     if values.into_iter().all(|v| v.is_finite()) {
         Ok(())
     } else {

@@ -68,8 +68,10 @@ impl Correction {
             self.nu[a] = z[row] - self.z_hat[a];
         }
         self.l.copy_from(&self.s);
-        cholesky_in_place(self.l.as_mut_slice(), m, mv)
-            .map_err(|_| FilterError::NotPositiveDefinite { stage: Stage::Update, matrix: "innovation covariance S" })?;
+        cholesky_in_place(self.l.as_mut_slice(), m, mv).map_err(|_| FilterError::NotPositiveDefinite {
+            stage: Stage::Update,
+            matrix: "innovation covariance S",
+        })?;
         for a in 0..mv {
             for q in 0..n {
                 self.y[(a, q)] = self.c[(q, a)];

@@ -17,7 +17,7 @@ use crate::filter::core::{ensure_finite, Core};
 use crate::filter::correction::Correction;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::symmetrize;
+use crate::linalg::{mul_to, symmetrize, tr_mul_add};
 use crate::model::Model;
 use crate::noise::Noise;
 
@@ -108,7 +108,13 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         self.core.begin_predict(u, dt)?;
         let n = self.core.n();
         let t = self.core.t;
-        self.core.model.transition(t, dt, self.core.x.as_slice(), self.core.u.as_slice(), self.core.x_next.as_mut_slice());
+        self.core.model.transition(
+            t,
+            dt,
+            self.core.x.as_slice(),
+            self.core.u.as_slice(),
+            self.core.x_next.as_mut_slice(),
+        );
         for j in 0..n {
             let width = self.perturb(j);
             let u = self.core.u.as_slice();
@@ -118,11 +124,15 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
                 self.f_t[(j, i)] = (self.f_plus[i] - self.f_minus[i]) / width;
             }
         }
-        ensure_finite(self.core.x_next.iter().chain(self.f_t.iter()), Stage::Predict, "propagated state or Jacobian F")?;
+        ensure_finite(
+            self.core.x_next.iter().chain(self.f_t.iter()),
+            Stage::Predict,
+            "propagated state or Jacobian F",
+        )?;
         // P⁻ = Fᵀᵀ·(P·Fᵀ) + Q.
-        self.pf_t.gemm(1.0, &self.p, &self.f_t, 0.0);
+        mul_to(self.p.as_slice(), n, n, n, self.f_t.as_slice(), n, n, self.pf_t.as_mut_slice(), n);
         self.p_next.copy_from(self.core.noise.q());
-        self.p_next.gemm_tr(1.0, &self.f_t, &self.pf_t, 1.0);
+        tr_mul_add(self.f_t.as_slice(), n, n, n, self.pf_t.as_slice(), n, n, self.p_next.as_mut_slice(), n);
         symmetrize(&mut self.p_next);
         ensure_finite(self.p_next.iter(), Stage::Predict, "predicted covariance P")?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
@@ -155,9 +165,7 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         ensure_finite(self.h_t.columns(0, mv).iter(), Stage::Update, "Jacobian H")?;
         // C = P·Hᵀ, S = H·C + R on the used rows.
         let cr = &mut self.correction;
-        let h_t = self.h_t.columns(0, mv);
-        let mut c = cr.c.columns_mut(0, mv);
-        c.gemm(1.0, &self.p, &h_t, 0.0);
+        mul_to(self.p.as_slice(), n, n, n, self.h_t.as_slice(), n, mv, cr.c.as_mut_slice(), n);
         let r = self.core.noise.r();
         let rows = self.core.innovation.rows();
         for (b, &rb) in rows.iter().enumerate() {
@@ -165,9 +173,16 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
                 cr.s[(a, b)] = r[(ra, rb)];
             }
         }
-        let mut s = cr.s.view_mut((0, 0), (mv, mv));
-        s.gemm_tr(1.0, &h_t, &cr.c.columns(0, mv), 1.0);
-        cr.apply(&self.core.z, &self.core.x, &self.p, &mut self.core.x_next, &mut self.p_next, &mut self.core.innovation)?;
+        let m = cr.s.nrows();
+        tr_mul_add(self.h_t.as_slice(), n, mv, n, cr.c.as_slice(), n, mv, cr.s.as_mut_slice(), m);
+        cr.apply(
+            &self.core.z,
+            &self.core.x,
+            &self.p,
+            &mut self.core.x_next,
+            &mut self.p_next,
+            &mut self.core.innovation,
+        )?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.p, &mut self.p_next);
         Ok(&self.core.innovation)

@@ -74,7 +74,16 @@ impl Innovation {
     /// (length ≥ used rows), `S` (leading dimension `ld_s`), and the lower
     /// Cholesky factor `L` of `S` with `e = L⁻¹·ν` (leading dimension `ld_l`).
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn record(&mut self, predicted: &[f64], residual: &[f64], s: &[f64], ld_s: usize, l: &[f64], ld_l: usize, e: &[f64]) {
+    pub(crate) fn record(
+        &mut self,
+        predicted: &[f64],
+        residual: &[f64],
+        s: &[f64],
+        ld_s: usize,
+        l: &[f64],
+        ld_l: usize,
+        e: &[f64],
+    ) {
         let mv = self.rows.len();
         self.predicted.fill(f64::NAN);
         self.residual.fill(f64::NAN);

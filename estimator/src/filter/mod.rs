@@ -102,7 +102,8 @@ pub enum FilterKind {
 
 impl FilterKind {
     /// Every kind, in a fixed order.
-    pub const ALL: [FilterKind; 5] = [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
+    pub const ALL: [FilterKind; 5] =
+        [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
 
     /// The short name used in tables and settings.
     pub fn name(self) -> &'static str {

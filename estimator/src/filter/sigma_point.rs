@@ -175,7 +175,11 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         let cr = &mut self.correction;
         cr.z_hat.fill(0.0);
         for i in 0..count {
-            axpy(self.points.mean_weight(i), &self.zs.as_slice()[i * m..i * m + mv], &mut cr.z_hat.as_mut_slice()[..mv]);
+            axpy(
+                self.points.mean_weight(i),
+                &self.zs.as_slice()[i * m..i * m + mv],
+                &mut cr.z_hat.as_mut_slice()[..mv],
+            );
         }
         for i in 0..count {
             let col = &mut self.zs.as_mut_slice()[i * m..i * m + mv];
@@ -194,7 +198,14 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         add_weighted_outer_products(cr.s.as_mut_slice(), m, &self.zs, mv, &self.zs, mv, &self.points);
         cr.c.fill(0.0);
         add_weighted_outer_products(cr.c.as_mut_slice(), n, &self.xs, n, &self.zs, mv, &self.points);
-        cr.apply(&self.core.z, &self.core.x, &self.p, &mut self.core.x_next, &mut self.p_next, &mut self.core.innovation)?;
+        cr.apply(
+            &self.core.z,
+            &self.core.x,
+            &self.p,
+            &mut self.core.x_next,
+            &mut self.p_next,
+            &mut self.core.innovation,
+        )?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.p, &mut self.p_next);
         Ok(&self.core.innovation)

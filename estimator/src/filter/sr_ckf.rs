@@ -251,7 +251,10 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         let solved = solve_lower(s_zz, m, mv, self.w_t.as_mut_slice(), m, n)
             && solve_lower_transposed(s_zz, m, mv, self.w_t.as_mut_slice(), m, n);
         if !solved {
-            return Err(FilterError::NotPositiveDefinite { stage: Stage::Update, matrix: "innovation covariance S_zz" });
+            return Err(FilterError::NotPositiveDefinite {
+                stage: Stage::Update,
+                matrix: "innovation covariance S_zz",
+            });
         }
 
         // x̂ = x̂⁻ + W·ν, and e = S_zz⁻¹·ν for the NIS.

@@ -58,14 +58,7 @@ pub(crate) fn solve_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: u
 }
 
 /// Solves `Lᵀ·X = B` in place (see [`solve_lower`] for the layout).
-pub(crate) fn solve_lower_transposed(
-    l: &[f64],
-    ldl: usize,
-    n: usize,
-    b: &mut [f64],
-    ldb: usize,
-    n_rhs: usize,
-) -> bool {
+pub(crate) fn solve_lower_transposed(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: usize, n_rhs: usize) -> bool {
     for r in 0..n_rhs {
         let x = &mut b[r * ldb..r * ldb + n];
         for j in (0..n).rev() {

@@ -44,6 +44,54 @@ pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// `C = A·B` for column-major `A` (`rows × inner`, ld `lda`), `B` (`inner × cols`, ld `ldb`),
+/// `C` (ld `ldc`). (nalgebra's `gemm` packs through `matrixmultiply`, which allocates.)
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn mul_to(
+    a: &[f64],
+    lda: usize,
+    rows: usize,
+    inner: usize,
+    b: &[f64],
+    ldb: usize,
+    cols: usize,
+    c: &mut [f64],
+    ldc: usize,
+) {
+    for j in 0..cols {
+        let c_col = &mut c[j * ldc..j * ldc + rows];
+        c_col.fill(0.0);
+        for k in 0..inner {
+            let bkj = b[j * ldb + k];
+            if bkj != 0.0 {
+                axpy(bkj, &a[k * lda..k * lda + rows], c_col);
+            }
+        }
+    }
+}
+
+/// `C += Aᵀ·B` for column-major `A` (`inner × rows`, ld `lda`), `B` (`inner × cols`, ld `ldb`),
+/// `C` (`rows × cols`, ld `ldc`).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn tr_mul_add(
+    a: &[f64],
+    lda: usize,
+    rows: usize,
+    inner: usize,
+    b: &[f64],
+    ldb: usize,
+    cols: usize,
+    c: &mut [f64],
+    ldc: usize,
+) {
+    for j in 0..cols {
+        let b_col = &b[j * ldb..j * ldb + inner];
+        for i in 0..rows {
+            c[j * ldc + i] += dot(&a[i * lda..i * lda + inner], b_col);
+        }
+    }
+}
+
 /// Replaces a square matrix by its symmetric part, `(A + Aᵀ)/2`.
 pub(crate) fn symmetrize(a: &mut nalgebra::DMatrix<f64>) {
     let n = a.nrows();

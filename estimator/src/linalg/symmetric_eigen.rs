@@ -77,7 +77,8 @@ impl SymmetricEigen {
             return;
         }
         let tau = (self.a[(q, q)] - self.a[(p, p)]) / (2.0 * apq);
-        let t = if tau >= 0.0 { 1.0 / (tau + (1.0 + tau * tau).sqrt()) } else { -1.0 / (-tau + (1.0 + tau * tau).sqrt()) };
+        let t =
+            if tau >= 0.0 { 1.0 / (tau + (1.0 + tau * tau).sqrt()) } else { -1.0 / (-tau + (1.0 + tau * tau).sqrt()) };
         let c = 1.0 / (1.0 + t * t).sqrt();
         let s = t * c;
         let n = self.a.nrows();

@@ -16,7 +16,10 @@ pub struct LinearGaussian {
 impl LinearGaussian {
     /// `A` (`n × n`), `B` (`n × p`), `H` (`m × n`).
     pub fn new(a: DMatrix<f64>, b: DMatrix<f64>, h: DMatrix<f64>) -> Self {
-        assert!(a.is_square() && b.nrows() == a.nrows() && h.ncols() == a.nrows(), "inconsistent LinearGaussian shapes");
+        assert!(
+            a.is_square() && b.nrows() == a.nrows() && h.ncols() == a.nrows(),
+            "inconsistent LinearGaussian shapes"
+        );
         Self { a, b, h }
     }
 

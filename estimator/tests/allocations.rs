@@ -1,0 +1,123 @@
+//! Once built, a filter allocates nothing per step: every buffer is the
+//! filter's own. Counted with a global allocator that counts per thread (the
+//! test harness runs tests on parallel threads).
+// The counting allocator needs `unsafe impl GlobalAlloc`.
+#![allow(unsafe_code)]
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use common::*;
+use estimator::models::SpringChainForces;
+use estimator::{
+    CubatureKalman, Discretized, ExtendedKalman, Gaussian, Noise, SquareRootCubature, StateEstimator, SvdCubature,
+    UnscentedKalman, UnscentedParams,
+};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count() {
+    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations_during(f: impl FnOnce()) -> usize {
+    let before = ALLOCATIONS.with(Cell::get);
+    f();
+    ALLOCATIONS.with(Cell::get) - before
+}
+
+/// Steps each filter once to warm up, then counts allocations over many
+/// steps with every measurement row present, some rows missing, and none.
+fn assert_no_allocation_per_step(mut filter: Box<dyn StateEstimator>, zs: &[Vec<f64>], dt: f64) {
+    let zs: Vec<Vec<f64>> = zs
+        .iter()
+        .enumerate()
+        .map(|(k, z)| match k % 5 {
+            1 => std::iter::once(f64::NAN).chain(z[1..].iter().copied()).collect(),
+            2 => vec![f64::NAN; z.len()],
+            _ => z.clone(),
+        })
+        .collect();
+    filter.predict(&[], dt).unwrap();
+    filter.update(&zs[0]).unwrap();
+    let mut p = nalgebra::DMatrix::zeros(filter.state_dim(), filter.state_dim());
+    let n = allocations_during(|| {
+        for z in &zs {
+            filter.predict(&[], dt).unwrap();
+            let innovation = filter.update(z).unwrap();
+            assert!(innovation.nis().is_finite());
+            filter.write_covariance(&mut p);
+            assert!(filter.variance(0) >= 0.0);
+        }
+    });
+    assert_eq!(n, 0, "{} allocated {n} times in {} steps", filter.kind(), zs.len());
+}
+
+fn s1_filters() -> Vec<Box<dyn StateEstimator>> {
+    let params = UnscentedParams { alpha: 0.5, beta: 2.0, kappa: 0.0 };
+    vec![
+        Box::new(CubatureKalman::cubature(s1_model(), s1_noise(), &s1_prior()).unwrap()),
+        Box::new(SquareRootCubature::new(s1_model(), s1_noise(), &s1_prior()).unwrap()),
+        Box::new(SvdCubature::svd_cubature(s1_model(), s1_noise(), &s1_prior()).unwrap()),
+        Box::new(UnscentedKalman::unscented(s1_model(), s1_noise(), &s1_prior(), params).unwrap()),
+        Box::new(ExtendedKalman::new(s1_model(), s1_noise(), &s1_prior()).unwrap()),
+    ]
+}
+
+#[test]
+fn no_filter_allocates_per_step_on_the_s1_model() {
+    let (zs, _) = s1_measurements(200, 0.005, 1.0, 0.05, 9);
+    for filter in s1_filters() {
+        assert_no_allocation_per_step(filter, &zs, 0.005);
+    }
+}
+
+#[test]
+fn no_filter_allocates_per_step_on_the_24_state_chain() {
+    let model = || Discretized::rk4(SpringChainForces::default(), 1);
+    let mut q = vec![1e-10; 20];
+    q.extend([1e4; 4]);
+    let noise = Noise::diagonal(&q, &[1e-4; 7]).unwrap();
+    let mut p0 = vec![1e-6; 20];
+    p0.extend([1e6; 4]);
+    let prior = Gaussian::diagonal(&[0.0; 24], &p0);
+    let zs: Vec<Vec<f64>> =
+        (0..100).map(|k| (0..7).map(|i| 0.01 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
+    let filters: Vec<Box<dyn StateEstimator>> = vec![
+        Box::new(CubatureKalman::cubature(model(), noise.clone(), &prior).unwrap()),
+        Box::new(SquareRootCubature::new(model(), noise.clone(), &prior).unwrap()),
+        Box::new(SvdCubature::svd_cubature(model(), noise.clone(), &prior).unwrap()),
+        Box::new(UnscentedKalman::unscented(model(), noise.clone(), &prior, UnscentedParams::default()).unwrap()),
+        Box::new(ExtendedKalman::new(model(), noise, &prior).unwrap()),
+    ];
+    for filter in filters {
+        assert_no_allocation_per_step(filter, &zs, 0.005);
+    }
+}
