@@ -176,20 +176,9 @@ struct CheckAndCountAllocations;
 impl FilterVisitor for CheckAndCountAllocations {
     fn visit<M, F: StateEstimator>(&mut self, case: &Case<M>, kind: &str, filter: Result<F, FilterError>) {
         let mut filter = built(case, kind, filter);
-        let mut nis = 0.0;
         for k in 0..STEPS {
             checked_step(case, kind, &mut filter, k);
-            if k >= 200 {
-                nis += filter.innovation().nis();
-            }
         }
-        eprintln!(
-            "DEBUG {}/{kind}: mean NIS {:.3} (m={}), final mean {:.3?}",
-            case.name,
-            nis / (STEPS - 200) as f64,
-            case.m,
-            filter.mean().as_slice()
-        );
         assert!(filter.mean().iter().all(|v| v.is_finite()), "{}/{kind}: the final estimate is not finite", case.name);
 
         filter.reset(0.0, &case.prior).unwrap_or_else(|e| panic!("{}/{kind}: reset failed: {e}", case.name));

@@ -40,8 +40,8 @@ pub mod models;
 
 pub use error::{FilterError, Stage};
 pub use filter::{
-    CholeskyRoot, CovarianceRoot, CubatureKalman, ExtendedKalman, FilterKind, Innovation, SigmaPointKalman,
-    SquareRootCubature, StateEstimator, SvdCubature, SvdRoot, UnscentedKalman,
+    build_filter, CholeskyRoot, CovarianceRoot, CubatureKalman, ExtendedKalman, FilterKind, Innovation,
+    SigmaPointKalman, SquareRootCubature, StateEstimator, SvdCubature, SvdRoot, UnscentedKalman,
 };
 pub use gaussian::Gaussian;
 pub use integrate::{Discretized, Rk4};

@@ -2,6 +2,7 @@
 //!
 //! Usage:
 //!   scenarios reproduce [--study s1] [--quick]
+//!   scenarios s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
 //!   scenarios replay < spec.json > estimates.json
 
 use std::process::ExitCode;
@@ -17,6 +18,10 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Reproduce the published studies and print our figures beside the papers'.
+    Reproduce(scenarios::reproduce::Args),
+    /// Study S1 over many seeds and noise levels.
+    S1Sweep(scenarios::sweep::Args),
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
 }
@@ -24,6 +29,8 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
+        Command::Reproduce(args) => scenarios::reproduce::run(args),
+        Command::S1Sweep(args) => scenarios::sweep::run(args),
         Command::Replay(args) => scenarios::replay::run(args),
     };
     match result {

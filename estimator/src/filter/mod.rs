@@ -85,6 +85,24 @@ pub trait StateEstimator {
     }
 }
 
+/// Builds a filter of `kind` on `model`, starting from `prior` at time 0, for
+/// drivers that choose the method at run time (`unscented` is used by the UKF only).
+pub fn build_filter<M: crate::Model + 'static>(
+    kind: FilterKind,
+    model: M,
+    noise: Noise,
+    prior: &Gaussian,
+    unscented: crate::UnscentedParams,
+) -> Result<Box<dyn StateEstimator>, FilterError> {
+    Ok(match kind {
+        FilterKind::Ckf => Box::new(CubatureKalman::cubature(model, noise, prior)?),
+        FilterKind::SrCkf => Box::new(SquareRootCubature::new(model, noise, prior)?),
+        FilterKind::SvdCkf => Box::new(SvdCubature::svd_cubature(model, noise, prior)?),
+        FilterKind::Ukf => Box::new(UnscentedKalman::unscented(model, noise, prior, unscented)?),
+        FilterKind::Ekf => Box::new(ExtendedKalman::new(model, noise, prior)?),
+    })
+}
+
 /// The filter methods, for configuration by name (`"srckf"`, …).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum FilterKind {
