@@ -25,21 +25,23 @@ impl Rk4 {
         let n = x.len();
         debug_assert!(self.k1.len() == n && x_next.len() == n);
         f.derivative(t, x, u, &mut self.k1);
-        for i in 0..n {
-            self.stage[i] = x[i] + 0.5 * h * self.k1[i];
-        }
+        stage(&mut self.stage, x, 0.5 * h, &self.k1);
         f.derivative(t + 0.5 * h, &self.stage, u, &mut self.k2);
-        for i in 0..n {
-            self.stage[i] = x[i] + 0.5 * h * self.k2[i];
-        }
+        stage(&mut self.stage, x, 0.5 * h, &self.k2);
         f.derivative(t + 0.5 * h, &self.stage, u, &mut self.k3);
-        for i in 0..n {
-            self.stage[i] = x[i] + h * self.k3[i];
-        }
+        stage(&mut self.stage, x, h, &self.k3);
         f.derivative(t + h, &self.stage, u, &mut self.k4);
         for i in 0..n {
             x_next[i] = x[i] + h / 6.0 * (self.k1[i] + 2.0 * self.k2[i] + 2.0 * self.k3[i] + self.k4[i]);
         }
+    }
+}
+
+/// `out = x + a·k`.
+#[inline]
+fn stage(out: &mut [f64], x: &[f64], a: f64, k: &[f64]) {
+    for ((o, xi), ki) in out.iter_mut().zip(x).zip(k) {
+        *o = xi + a * ki;
     }
 }
 

@@ -210,9 +210,9 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         for i in 0..n_pts {
             axpy(1.0 / n_pts as f64, &self.zs.as_slice()[i * m..i * m + mv], z_hat);
         }
-        for a in 0..mv {
+        for (a, zh) in z_hat.iter().enumerate() {
             for i in 0..n_pts {
-                self.gamma_t[(i, a)] = (self.zs[(a, i)] - z_hat[a]) * scale;
+                self.gamma_t[(i, a)] = (self.zs[(a, i)] - zh) * scale;
             }
         }
 

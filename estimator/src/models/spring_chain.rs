@@ -42,9 +42,9 @@ impl SpringChainForces {
             self.stiffness * dz + self.damper.force(dv)
         };
         let mut below = element(0);
-        for i in 0..MASSES {
+        for (i, acc) in out.iter_mut().enumerate().take(MASSES) {
             let above = if i + 1 < MASSES { element(i + 1) } else { 0.0 };
-            out[i] = (above - below) / self.mass;
+            *acc = (above - below) / self.mass;
             below = above;
         }
         for (k, &i) in FORCES.iter().enumerate() {

@@ -205,7 +205,7 @@ pub struct Measurements {
 /// Adds white Gaussian noise of `fraction × RMS` to each acceleration channel.
 pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
     // A stream of its own, so the noise does not change when the load's draw does.
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F_A11CE);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x05EE_D0FA_11CE);
     let n = truth.acceleration.len() as f64;
     let rms = |i: usize| (truth.acceleration.iter().map(|a| a[i] * a[i]).sum::<f64>() / n).sqrt();
     let noise_std = [fraction * rms(0), fraction * rms(1)];
