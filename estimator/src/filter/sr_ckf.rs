@@ -233,12 +233,16 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         }
         tria(self.zz_compound.as_mut_slice(), ld_zz, ld_zz, mv, self.s_zz.as_mut_slice(), m);
 
-        // χᵀ into the top of the update compound; Wᵀ = P_xzᵀ = γ·χᵀ, then the two solves.
+        // χᵀ into the top of the update compound: χ = [Xᵢ − x̂⁻]/√(2n) = [S, −S]/√2 for
+        // the cubature points. Then Wᵀ = P_xzᵀ = γ·χᵀ and the two solves.
         let ld_u = n_pts + m;
-        for q in 0..n {
-            let col = &mut self.update_compound.as_mut_slice()[q * ld_u..q * ld_u + n_pts];
-            for (i, v) in col.iter_mut().enumerate() {
-                *v = (self.xs[(q, i)] - self.core.x[q]) * scale;
+        let s = self.s.as_slice();
+        for (q, col) in self.update_compound.as_mut_slice().chunks_exact_mut(ld_u).enumerate() {
+            let (plus, minus) = col[..n_pts].split_at_mut(n);
+            for (j, (p, mi)) in plus.iter_mut().zip(minus.iter_mut()).enumerate() {
+                let v = s[j * n + q] * std::f64::consts::FRAC_1_SQRT_2;
+                *p = v;
+                *mi = -v;
             }
         }
         for q in 0..n {
