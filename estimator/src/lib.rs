@@ -41,7 +41,7 @@ pub mod models;
 pub use error::{FilterError, Stage};
 pub use filter::{
     build_filter, CholeskyRoot, CovarianceRoot, CubatureKalman, ExtendedKalman, FilterKind, Innovation,
-    SigmaPointKalman, SquareRootCubature, StateEstimator, SvdCubature, SvdRoot, UnscentedKalman,
+    SigmaPointKalman, Snapshot, SquareRootCubature, StateEstimator, SvdCubature, SvdRoot, UnscentedKalman,
 };
 pub use gaussian::Gaussian;
 pub use integrate::{Discretized, Rk4};

@@ -95,6 +95,37 @@ impl<M: Model> Core<M> {
     }
 }
 
+impl<M: Model> Core<M> {
+    /// The snapshot with `covariance` the filter's own representation.
+    pub fn snapshot(
+        &self,
+        kind: crate::filter::FilterKind,
+        covariance: &nalgebra::DMatrix<f64>,
+    ) -> crate::filter::Snapshot {
+        crate::filter::Snapshot {
+            kind,
+            time: self.t,
+            input: self.u.as_slice().to_vec(),
+            mean: self.x.as_slice().to_vec(),
+            covariance: covariance.as_slice().to_vec(),
+        }
+    }
+
+    /// Restores time, input and mean; returns the covariance part for the filter.
+    pub fn restore<'a>(
+        &mut self,
+        kind: crate::filter::FilterKind,
+        snapshot: &'a crate::filter::Snapshot,
+    ) -> Result<&'a [f64], FilterError> {
+        snapshot.check(kind, self.n(), self.u.len())?;
+        self.t = snapshot.time;
+        self.u.copy_from_slice(&snapshot.input);
+        self.x.copy_from_slice(&snapshot.mean);
+        self.innovation.record_none();
+        Ok(&snapshot.covariance)
+    }
+}
+
 /// `Err(NonFinite)` unless every value is finite.
 pub(crate) fn ensure_finite<'a>(
     values: impl IntoIterator<Item = &'a f64>,

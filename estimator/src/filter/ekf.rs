@@ -214,6 +214,16 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         Ok(())
     }
 
+    fn snapshot(&self) -> crate::filter::Snapshot {
+        self.core.snapshot(FilterKind::Ekf, &self.p)
+    }
+
+    fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
+        let covariance = self.core.restore(FilterKind::Ekf, snapshot)?;
+        self.p.copy_from_slice(covariance);
+        Ok(())
+    }
+
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
         self.core.reset(t0, prior)?;
         self.p.copy_from(&prior.covariance);

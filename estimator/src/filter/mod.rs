@@ -76,12 +76,52 @@ pub trait StateEstimator {
     /// Restarts from `prior` at time `t0`, keeping the buffers.
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
 
+    /// The belief as plain numbers, to save and restore (e.g. FMU state).
+    fn snapshot(&self) -> Snapshot;
+    /// Restores a belief saved by [`StateEstimator::snapshot`] of a filter of the
+    /// same kind and size; continuing from it is bit-identical.
+    fn restore(&mut self, snapshot: &Snapshot) -> Result<(), FilterError>;
+
     /// The covariance `P` as a new matrix.
     fn covariance(&self) -> DMatrix<f64> {
         let n = self.state_dim();
         let mut p = DMatrix::zeros(n, n);
         self.write_covariance(&mut p);
         p
+    }
+}
+
+/// A filter's belief: its time, the held input, the mean and the covariance in
+/// the form the filter propagates (`P`, or the square root `S` for the SRCKF),
+/// column-major. Plain data: no pointers, so it can be serialised.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    /// The filter kind it was taken from.
+    pub kind: FilterKind,
+    /// Time of the belief.
+    pub time: f64,
+    /// The input held from the last `predict`.
+    pub input: Vec<f64>,
+    /// The mean `x̂` (`n`).
+    pub mean: Vec<f64>,
+    /// `P`, or `S` for the SRCKF (`n × n`, column-major).
+    pub covariance: Vec<f64>,
+}
+
+impl Snapshot {
+    /// Checks that the snapshot fits a filter of `kind` with `n` states and `n_u` inputs.
+    pub(crate) fn check(&self, kind: FilterKind, n: usize, n_u: usize) -> Result<(), FilterError> {
+        if self.kind != kind {
+            return Err(FilterError::InvalidSetting(format!("snapshot of a {} cannot restore a {kind}", self.kind)));
+        }
+        crate::error::check_len("snapshot mean", n, self.mean.len())?;
+        crate::error::check_len("snapshot covariance", n * n, self.covariance.len())?;
+        crate::error::check_len("snapshot input", n_u, self.input.len())?;
+        let finite = self.mean.iter().chain(&self.covariance).chain(&self.input).all(|v| v.is_finite());
+        if !finite || !self.time.is_finite() {
+            return Err(FilterError::InvalidSetting("snapshot has non-finite values".into()));
+        }
+        Ok(())
     }
 }
 

@@ -237,6 +237,16 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         Ok(())
     }
 
+    fn snapshot(&self) -> crate::filter::Snapshot {
+        self.core.snapshot(self.kind, &self.p)
+    }
+
+    fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
+        let covariance = self.core.restore(self.kind, snapshot)?;
+        self.p.copy_from_slice(covariance);
+        Ok(())
+    }
+
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
         self.core.reset(t0, prior)?;
         self.p.copy_from(&prior.covariance);

@@ -348,6 +348,16 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         Ok(())
     }
 
+    fn snapshot(&self) -> crate::filter::Snapshot {
+        self.core.snapshot(FilterKind::SrCkf, &self.s)
+    }
+
+    fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
+        let covariance = self.core.restore(FilterKind::SrCkf, snapshot)?;
+        self.s.copy_from_slice(covariance);
+        Ok(())
+    }
+
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
         self.core.reset(t0, prior)?;
         self.set_sqrt_from(&prior.covariance)
