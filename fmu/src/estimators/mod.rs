@@ -1,0 +1,200 @@
+//! The estimator FMUs. Each is a [`Descriptor`]: its variable table and the
+//! two functions that turn parameter values into a filter. The C ABI and the
+//! instance never change for a new estimator: adding one is adding a file
+//! here and a line in [`all`].
+
+mod s1_load;
+
+use std::sync::OnceLock;
+
+use estimator::{FilterKind, Noise, StateEstimator, UnscentedParams};
+
+use crate::variables::{Causality, EnumerationType, Kind, Parameters, Role, Variability, Variable};
+
+/// `<DefaultExperiment>`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DefaultExperiment {
+    /// Start time (s).
+    pub start: f64,
+    /// Stop time (s).
+    pub stop: f64,
+    /// Communication step (s).
+    pub step: f64,
+}
+
+/// Builds the filter from the parameter values: `(parameters, kind, unscented, noise)`.
+pub type BuildFilter = fn(&Parameters, FilterKind, UnscentedParams, Noise) -> Result<Box<dyn StateEstimator>, String>;
+/// Builds `Q` and `R` from the (tunable) parameter values.
+pub type BuildNoise = fn(&Parameters) -> Result<Noise, String>;
+
+/// Everything that makes one estimator FMU.
+#[derive(Debug)]
+pub struct Descriptor {
+    /// `modelIdentifier` (also the name of the binary in the FMU).
+    pub model_identifier: &'static str,
+    /// `modelName`.
+    pub model_name: &'static str,
+    /// `description`.
+    pub description: &'static str,
+    /// HTML paragraphs on the study behind the estimator, for `documentation/index.html`.
+    pub documentation: &'static str,
+    /// The variables; value reference = position.
+    pub variables: Vec<Variable>,
+    /// `<DefaultExperiment>`.
+    pub default_experiment: DefaultExperiment,
+    /// Filter construction.
+    pub build_filter: BuildFilter,
+    /// Noise construction.
+    pub build_noise: BuildNoise,
+    guid: String,
+}
+
+impl Descriptor {
+    /// Completes a description: appends the variables every estimator has and
+    /// derives the GUID from the whole table.
+    fn finish(mut self) -> Self {
+        self.variables.extend(common_variables());
+        self.guid = guid_of(self.model_identifier, &self.variables);
+        self
+    }
+
+    /// The GUID: a hash of the identifier, the crate version and the whole
+    /// variable table, so any change of the interface changes it.
+    pub fn guid(&self) -> &str {
+        &self.guid
+    }
+
+    /// Number of measurement inputs.
+    pub fn measurement_dim(&self) -> usize {
+        self.variables.iter().filter(|v| matches!(v.role, Role::Measurement(_))).count()
+    }
+
+    /// The enumeration types the variables use, each once.
+    pub fn enumeration_types(&self) -> Vec<&'static EnumerationType> {
+        let mut types: Vec<&'static EnumerationType> = Vec::new();
+        for v in &self.variables {
+            if let Kind::Enumeration(t) = v.kind {
+                if !types.iter().any(|k| std::ptr::eq(*k, t)) {
+                    types.push(t);
+                }
+            }
+        }
+        types
+    }
+}
+
+/// Every estimator FMU.
+pub fn all() -> &'static [Descriptor] {
+    static ALL: OnceLock<Vec<Descriptor>> = OnceLock::new();
+    ALL.get_or_init(|| vec![s1_load::descriptor()])
+}
+
+/// The estimator with this GUID.
+pub fn by_guid(guid: &str) -> Option<&'static Descriptor> {
+    all().iter().find(|d| d.guid() == guid)
+}
+
+/// The filter kinds as an FMI enumeration (set and got with `fmi2SetInteger`).
+pub static FILTER_KIND: EnumerationType = EnumerationType {
+    name: "FilterKind",
+    items: &[
+        (1, "CKF", "cubature Kalman filter (Cholesky)"),
+        (2, "SRCKF", "square-root cubature Kalman filter"),
+        (3, "SVD_CKF", "cubature Kalman filter with the SVD as square root"),
+        (4, "UKF", "scaled unscented Kalman filter (ukf_alpha, ukf_beta, ukf_kappa)"),
+        (5, "EKF", "extended Kalman filter with finite-difference Jacobians"),
+    ],
+};
+
+/// The filter kind for an enumeration value.
+pub fn filter_kind(value: f64) -> Result<FilterKind, String> {
+    let kinds = [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
+    kinds
+        .into_iter()
+        .zip(FILTER_KIND.items)
+        .find(|(_, (v, _, _))| f64::from(*v) == value)
+        .map(|(k, _)| k)
+        .ok_or_else(|| format!("parameter filter must be 1 (CKF) … 5 (EKF), got {value}"))
+}
+
+/// The parameters and outputs every estimator FMU has.
+fn common_variables() -> Vec<Variable> {
+    vec![
+        Variable {
+            kind: Kind::Enumeration(&FILTER_KIND),
+            start: Some(2.0),
+            unit: None,
+            ..Variable::parameter("filter", "1", 2.0, "filter method: 1 CKF, 2 SRCKF, 3 SVD-CKF, 4 UKF, 5 EKF")
+        },
+        Variable::parameter("sample_time", "s", 0.005, "filter sample time: one predict + update per sample")
+            .bounded(Some(1e-9), None),
+        Variable::parameter("ukf_alpha", "1", 1e-3, "UKF spread alpha (UKF only)").bounded(Some(1e-9), None),
+        Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
+        Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),
+        Variable::output("nis", "1", Role::Nis, "normalised innovation squared of the last update"),
+        Variable {
+            kind: Kind::Integer,
+            variability: Variability::Discrete,
+            unit: None,
+            ..Variable::output(
+                "skipped_measurements",
+                "1",
+                Role::SkippedMeasurements,
+                "measurement rows left out so far because the input was NaN or infinite",
+            )
+        },
+        Variable {
+            kind: Kind::Boolean,
+            variability: Variability::Discrete,
+            unit: None,
+            ..Variable::output("filter_healthy", "1", Role::FilterHealthy, "false once the filter has failed")
+        },
+    ]
+}
+
+/// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from two FNV-1a hashes of the interface.
+fn guid_of(identifier: &str, variables: &[Variable]) -> String {
+    let mut text = format!("{identifier}|{}", env!("CARGO_PKG_VERSION"));
+    for v in variables {
+        text.push_str(&format!(
+            "|{}:{:?}:{:?}:{:?}:{:?}:{:?}",
+            v.name, v.kind, v.causality, v.variability, v.unit, v.role
+        ));
+    }
+    let fnv = |seed: u64| text.bytes().fold(seed, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    let (a, b) = (fnv(0xcbf2_9ce4_8422_2325), fnv(0x8422_2325_cbf2_9ce4));
+    format!(
+        "{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}",
+        a >> 32,
+        (a >> 16) & 0xffff,
+        a & 0xffff,
+        b >> 48,
+        b & 0xffff_ffff_ffff
+    )
+}
+
+/// Checks the table invariants the rest of the crate relies on.
+pub fn check(descriptor: &Descriptor) -> Result<(), String> {
+    let vars = &descriptor.variables;
+    for (i, v) in vars.iter().enumerate() {
+        if vars[..i].iter().any(|w| w.name == v.name) {
+            return Err(format!("duplicate variable name {}", v.name));
+        }
+        let ok = matches!(
+            (v.causality, v.variability, v.start.is_some()),
+            (Causality::Parameter, Variability::Fixed | Variability::Tunable, true)
+                | (Causality::Input, Variability::Continuous | Variability::Discrete, true)
+                | (Causality::Output, Variability::Continuous | Variability::Discrete, false)
+        );
+        if !ok {
+            return Err(format!("variable {} has an illegal causality/variability/start combination", v.name));
+        }
+    }
+    let m = descriptor.measurement_dim();
+    for row in 0..m {
+        if !vars.iter().any(|v| v.role == Role::Measurement(row)) {
+            return Err(format!("measurement row {row} has no input"));
+        }
+    }
+    Ok(())
+}

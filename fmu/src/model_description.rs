@@ -1,0 +1,221 @@
+//! Writes `modelDescription.xml` and `documentation/index.html` from an
+//! estimator's [`Descriptor`]. Written by hand because `fmi-schema` cannot
+//! write units, bounds or enumeration types; a test parses the result back
+//! with `fmi-schema` and compares it with the committed files.
+
+use std::fmt::Write as _;
+
+use crate::estimators::Descriptor;
+use crate::instance::LOG_CATEGORIES;
+use crate::variables::{Causality, Kind, Variability, Variable, UNITS};
+
+/// The `modelDescription.xml` of an estimator FMU.
+pub fn model_description(d: &Descriptor) -> String {
+    let mut x = String::new();
+    let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
+    let _ = writeln!(
+        x,
+        r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" generationTool="kalfmu {}" variableNamingConvention="flat" numberOfEventIndicators="0">"#,
+        esc(d.model_name),
+        d.guid(),
+        esc(d.description),
+        env!("CARGO_PKG_VERSION")
+    );
+    let _ = writeln!(
+        x,
+        r#"  <CoSimulation modelIdentifier="{}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="true"/>"#,
+        d.model_identifier
+    );
+    x.push_str("  <UnitDefinitions>\n");
+    for unit in UNITS.iter().filter(|u| d.variables.iter().any(|v| v.unit == Some(u.name))) {
+        let [kg, m, s] = unit.exponents;
+        let mut base = String::new();
+        for (name, e) in [("kg", kg), ("m", m), ("s", s)] {
+            if e != 0 {
+                let _ = write!(base, r#" {name}="{e}""#);
+            }
+        }
+        let _ = writeln!(x, r#"    <Unit name="{}"><BaseUnit{base}/></Unit>"#, esc(unit.name));
+    }
+    x.push_str("  </UnitDefinitions>\n");
+    let enumerations = d.enumeration_types();
+    if !enumerations.is_empty() {
+        x.push_str("  <TypeDefinitions>\n");
+        for t in enumerations {
+            let _ = writeln!(x, r#"    <SimpleType name="{}">"#, esc(t.name));
+            x.push_str("      <Enumeration>\n");
+            for (value, name, description) in t.items {
+                let _ = writeln!(
+                    x,
+                    r#"        <Item name="{}" value="{value}" description="{}"/>"#,
+                    esc(name),
+                    esc(description)
+                );
+            }
+            x.push_str("      </Enumeration>\n    </SimpleType>\n");
+        }
+        x.push_str("  </TypeDefinitions>\n");
+    }
+    x.push_str("  <LogCategories>\n");
+    for (name, description) in LOG_CATEGORIES {
+        let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, esc(description));
+    }
+    x.push_str("  </LogCategories>\n");
+    let e = d.default_experiment;
+    let _ =
+        writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, e.start, e.stop, e.step);
+    x.push_str("  <ModelVariables>\n");
+    for (vr, v) in d.variables.iter().enumerate() {
+        let _ = writeln!(x, "    <!-- index {} -->", vr + 1);
+        let initial = match v.causality {
+            Causality::Output => r#" initial="calculated""#,
+            Causality::Parameter => r#" initial="exact""#,
+            Causality::Input => "",
+        };
+        let _ = writeln!(
+            x,
+            r#"    <ScalarVariable name="{}" valueReference="{vr}" description="{}" causality="{}" variability="{}"{initial}>"#,
+            esc(v.name),
+            esc(v.description),
+            causality(v),
+            variability(v)
+        );
+        let _ = writeln!(x, "      {}", type_element(v));
+        x.push_str("    </ScalarVariable>\n");
+    }
+    x.push_str("  </ModelVariables>\n  <ModelStructure>\n    <Outputs>\n");
+    let outputs: Vec<usize> =
+        d.variables.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).map(|(i, _)| i + 1).collect();
+    for i in &outputs {
+        let _ = writeln!(x, r#"      <Unknown index="{i}"/>"#);
+    }
+    x.push_str("    </Outputs>\n    <InitialUnknowns>\n");
+    for i in &outputs {
+        let _ = writeln!(x, r#"      <Unknown index="{i}"/>"#);
+    }
+    x.push_str("    </InitialUnknowns>\n  </ModelStructure>\n</fmiModelDescription>\n");
+    x
+}
+
+fn causality(v: &Variable) -> &'static str {
+    match v.causality {
+        Causality::Parameter => "parameter",
+        Causality::Input => "input",
+        Causality::Output => "output",
+    }
+}
+
+fn variability(v: &Variable) -> &'static str {
+    match v.variability {
+        Variability::Fixed => "fixed",
+        Variability::Tunable => "tunable",
+        Variability::Discrete => "discrete",
+        Variability::Continuous => "continuous",
+    }
+}
+
+fn type_element(v: &Variable) -> String {
+    let mut attrs = String::new();
+    if let Kind::Enumeration(t) = v.kind {
+        let _ = write!(attrs, r#" declaredType="{}""#, esc(t.name));
+    }
+    if let Some(unit) = v.unit {
+        let _ = write!(attrs, r#" unit="{}""#, esc(unit));
+    }
+    if let Some(min) = v.min {
+        let _ = write!(attrs, r#" min="{}""#, number(v, min));
+    }
+    if let Some(max) = v.max {
+        let _ = write!(attrs, r#" max="{}""#, number(v, max));
+    }
+    if let Some(start) = v.start {
+        let _ = write!(attrs, r#" start="{}""#, number(v, start));
+    }
+    let tag = match v.kind {
+        Kind::Real => "Real",
+        Kind::Integer => "Integer",
+        Kind::Boolean => "Boolean",
+        Kind::Enumeration(_) => "Enumeration",
+    };
+    format!("<{tag}{attrs}/>")
+}
+
+fn number(v: &Variable, x: f64) -> String {
+    match v.kind {
+        Kind::Real => format!("{x:?}"),
+        Kind::Integer | Kind::Enumeration(_) => format!("{}", x as i64),
+        Kind::Boolean => (if x != 0.0 { "true" } else { "false" }).to_string(),
+    }
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&apos;")
+}
+
+/// `documentation/index.html`: the study, the time semantics, and a table of
+/// every variable.
+pub fn documentation(d: &Descriptor) -> String {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{name}</title>\
+         <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto}}table{{border-collapse:collapse}}\
+         td,th{{border:1px solid #ccc;padding:0.2em 0.5em;text-align:left}}</style></head><body>\n\
+         <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
+         <h2>The study</h2>\n{doc}\n\
+         <h2>How it steps</h2>\n<p>One predict + update of the filter per <code>sample_time</code>, on the grid \
+         start + k·sample_time. A communication step from t to t + h runs every sample in (t, t + h] on the inputs \
+         held as set before the step. If h is not a multiple of the sample time, the outputs are those of the last \
+         sample reached, and a warning says so once. A NaN or infinite input leaves that row out of the update \
+         (prediction only for it), is counted in <code>skipped_measurements</code> and reported once per input. \
+         A filter failure returns fmi2Discard with the time and the reason; <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> \
+         gives the time of the last good estimate.</p>\n\
+         <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
+         fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect at the next step. \
+         The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free and restores exactly in a new instance.</p>\n",
+        name = esc(d.model_name),
+        description = esc(d.description),
+        id = d.model_identifier,
+        guid = d.guid(),
+        doc = d.documentation
+    );
+    for (title, causality) in
+        [("Inputs", Causality::Input), ("Outputs", Causality::Output), ("Parameters", Causality::Parameter)]
+    {
+        let _ = write!(h, "<h2>{title}</h2>\n<table><tr><th>name</th><th>vr</th><th>unit</th><th>type</th>");
+        if causality == Causality::Parameter {
+            h.push_str("<th>variability</th><th>start</th>");
+        }
+        h.push_str("<th>description</th></tr>\n");
+        for (vr, v) in d.variables.iter().enumerate().filter(|(_, v)| v.causality == causality) {
+            let kind = match v.kind {
+                Kind::Real => "Real".to_string(),
+                Kind::Integer => "Integer".to_string(),
+                Kind::Boolean => "Boolean".to_string(),
+                Kind::Enumeration(t) => format!("Enumeration {}", t.name),
+            };
+            let _ = write!(
+                h,
+                "<tr><td><code>{}</code></td><td>{vr}</td><td>{}</td><td>{kind}</td>",
+                esc(v.name),
+                esc(v.unit.unwrap_or(""))
+            );
+            if causality == Causality::Parameter {
+                let _ = write!(
+                    h,
+                    "<td>{}</td><td>{}</td>",
+                    variability(v),
+                    v.start.map(|s| number(v, s)).unwrap_or_default()
+                );
+            }
+            let _ = writeln!(h, "<td>{}</td></tr>", esc(v.description));
+        }
+        h.push_str("</table>\n");
+    }
+    h.push_str("<h2>Log categories</h2>\n<ul>\n");
+    for (name, description) in LOG_CATEGORIES {
+        let _ = writeln!(h, "<li><code>{name}</code>: {}</li>", esc(description));
+    }
+    h.push_str("</ul>\n</body></html>\n");
+    h
+}

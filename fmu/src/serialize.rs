@@ -1,0 +1,218 @@
+//! The serialised FMU state: a versioned, pointer-free byte string that a
+//! fresh instance — in this process or another — restores bit-exactly.
+//!
+//! ```text
+//! "KALFMUS\0"  format version (u32)  GUID (u32 length + UTF-8)
+//! state (u8)  time, start time (f64)  stop time present (u8) + f64
+//! samples (u64)  last successful time (f64)  off-grid reported (u8)
+//! values (u32 count + f64 each)  missing reported (u32 count + u8 each)
+//! filter present (u8) [ kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
+//! ```
+//!
+//! All numbers little-endian. The filter is rebuilt from the parameter values
+//! and its belief then restored from the snapshot.
+
+use estimator::{FilterKind, Snapshot};
+
+use crate::instance::Instance;
+use crate::state::ModelState;
+
+const MAGIC: &[u8; 8] = b"KALFMUS\0";
+const VERSION: u32 = 1;
+
+/// Serialises the instance's state.
+pub fn save(instance: &Instance) -> Vec<u8> {
+    let mut w = Writer(Vec::with_capacity(64 + 8 * instance.values.len()));
+    w.0.extend_from_slice(MAGIC);
+    w.u32(VERSION);
+    w.bytes(instance.descriptor.guid().as_bytes());
+    w.u8(instance.state as u8);
+    w.f64(instance.time);
+    w.f64(instance.start_time);
+    w.u8(u8::from(instance.stop_time.is_some()));
+    w.f64(instance.stop_time.unwrap_or(0.0));
+    w.u64(instance.samples);
+    w.f64(instance.last_successful_time);
+    w.u8(u8::from(instance.off_grid_reported));
+    w.f64s(&instance.values);
+    w.u32(instance.missing_reported.len() as u32);
+    for &r in &instance.missing_reported {
+        w.u8(u8::from(r));
+    }
+    match instance.filter.as_ref().map(|f| f.snapshot()) {
+        None => w.u8(0),
+        Some(s) => {
+            w.u8(1);
+            w.u8(kind_tag(s.kind));
+            w.f64(s.time);
+            w.f64s(&s.input);
+            w.f64s(&s.mean);
+            w.f64s(&s.covariance);
+        }
+    }
+    w.0
+}
+
+/// The parts of a saved state, checked against the instance it is for.
+pub struct Saved {
+    state: ModelState,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    samples: u64,
+    last_successful_time: f64,
+    off_grid_reported: bool,
+    values: Vec<f64>,
+    missing_reported: Vec<bool>,
+    filter: Option<Snapshot>,
+}
+
+/// Parses and checks a saved state for an instance of `guid` with
+/// `n_values` variables and `m` measurement channels.
+pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Saved, String> {
+    let mut r = Reader { bytes, at: 0 };
+    if r.take(8)? != MAGIC {
+        return Err("not a kalfmu FMU state (bad magic)".into());
+    }
+    let version = r.u32()?;
+    if version != VERSION {
+        return Err(format!("FMU state format version {version}, this FMU reads version {VERSION}"));
+    }
+    let saved_guid = r.bytes()?;
+    if saved_guid != guid.as_bytes() {
+        return Err(format!("FMU state of another FMU (GUID {})", String::from_utf8_lossy(saved_guid)));
+    }
+    let state = ModelState::from_tag(r.u8()?).ok_or("bad model state tag")?;
+    let (time, start_time) = (r.f64()?, r.f64()?);
+    let (has_stop, stop) = (r.u8()?, r.f64()?);
+    let (samples, last_successful_time, off_grid_reported) = (r.u64()?, r.f64()?, r.u8()? != 0);
+    let values = r.f64s()?;
+    if values.len() != n_values {
+        return Err(format!("FMU state has {} values, the FMU has {n_values} variables", values.len()));
+    }
+    let n_missing = r.u32()? as usize;
+    if n_missing != m {
+        return Err(format!("FMU state has {n_missing} input channels, the FMU has {m}"));
+    }
+    let missing_reported = (0..n_missing).map(|_| r.u8().map(|b| b != 0)).collect::<Result<_, _>>()?;
+    let filter = match r.u8()? {
+        0 => None,
+        _ => {
+            let kind = kind_of(r.u8()?)?;
+            let time = r.f64()?;
+            let (input, mean, covariance) = (r.f64s()?, r.f64s()?, r.f64s()?);
+            Some(Snapshot { kind, time, input, mean, covariance })
+        }
+    };
+    if r.at != bytes.len() {
+        return Err(format!("{} trailing bytes after the FMU state", bytes.len() - r.at));
+    }
+    Ok(Saved {
+        state,
+        time,
+        start_time,
+        stop_time: (has_stop != 0).then_some(stop),
+        samples,
+        last_successful_time,
+        off_grid_reported,
+        values,
+        missing_reported,
+        filter,
+    })
+}
+
+/// Applies a parsed state: the filter is rebuilt from the saved parameters
+/// and its belief restored. On error the instance is unchanged.
+pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
+    let mut filter = match &saved.filter {
+        None => None,
+        Some(snapshot) => {
+            let mut f = crate::instance::build_filter(instance.descriptor, &saved.values, saved.start_time)?;
+            f.restore(snapshot).map_err(|e| format!("cannot restore the filter: {e}"))?;
+            Some(f)
+        }
+    };
+    instance.state = saved.state;
+    instance.time = saved.time;
+    instance.start_time = saved.start_time;
+    instance.stop_time = saved.stop_time;
+    instance.samples = saved.samples;
+    instance.last_successful_time = saved.last_successful_time;
+    instance.off_grid_reported = saved.off_grid_reported;
+    instance.values = saved.values;
+    instance.missing_reported = saved.missing_reported;
+    instance.filter = filter.take();
+    Ok(())
+}
+
+fn kind_tag(kind: FilterKind) -> u8 {
+    FilterKind::ALL.iter().position(|k| *k == kind).expect("every kind is in ALL") as u8
+}
+
+fn kind_of(tag: u8) -> Result<FilterKind, String> {
+    FilterKind::ALL.get(tag as usize).copied().ok_or_else(|| format!("bad filter kind tag {tag}"))
+}
+
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u8(&mut self, v: u8) {
+        self.0.push(v);
+    }
+    fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        self.u32(b.len() as u32);
+        self.0.extend_from_slice(b);
+    }
+    fn f64s(&mut self, v: &[f64]) {
+        self.u32(v.len() as u32);
+        for &x in v {
+            self.f64(x);
+        }
+    }
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or("FMU state is truncated")?;
+        let out = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(out)
+    }
+    fn u8(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+    }
+    fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+    fn bytes(&mut self) -> Result<&'a [u8], String> {
+        let n = self.u32()? as usize;
+        self.take(n)
+    }
+    fn f64s(&mut self) -> Result<Vec<f64>, String> {
+        let n = self.u32()? as usize;
+        if n > self.bytes.len() / 8 {
+            return Err("FMU state is truncated".into());
+        }
+        (0..n).map(|_| self.f64()).collect()
+    }
+}
