@@ -126,6 +126,43 @@ impl<M: Model> Core<M> {
     }
 }
 
+/// The `StateEstimator` methods every filter answers from its `core` field
+/// alike: dimensions, time, mean, innovation and noise.
+macro_rules! core_accessors {
+    () => {
+        fn state_dim(&self) -> usize {
+            self.core.n()
+        }
+
+        fn measurement_dim(&self) -> usize {
+            self.core.m()
+        }
+
+        fn time(&self) -> f64 {
+            self.core.t
+        }
+
+        fn mean(&self) -> &nalgebra::DVector<f64> {
+            &self.core.x
+        }
+
+        fn innovation(&self) -> &crate::filter::Innovation {
+            &self.core.innovation
+        }
+
+        fn noise(&self) -> &crate::noise::Noise {
+            &self.core.noise
+        }
+
+        fn set_noise(&mut self, noise: crate::noise::Noise) -> Result<(), crate::error::FilterError> {
+            self.core.check_noise(&noise)?;
+            self.core.noise = noise;
+            Ok(())
+        }
+    };
+}
+pub(crate) use core_accessors;
+
 /// `Err(NonFinite)` unless every value is finite.
 pub(crate) fn ensure_finite<'a>(
     values: impl IntoIterator<Item = &'a f64>,

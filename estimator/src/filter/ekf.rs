@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
-use crate::filter::core::{ensure_finite, Core};
+use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::correction::Correction;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
@@ -88,20 +88,10 @@ impl<M: Model> ExtendedKalman<M> {
 }
 
 impl<M: Model> StateEstimator for ExtendedKalman<M> {
+    core_accessors!();
+
     fn kind(&self) -> FilterKind {
         FilterKind::Ekf
-    }
-
-    fn state_dim(&self) -> usize {
-        self.core.n()
-    }
-
-    fn measurement_dim(&self) -> usize {
-        self.core.m()
-    }
-
-    fn time(&self) -> f64 {
-        self.core.t
     }
 
     fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
@@ -188,30 +178,12 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         Ok(&self.core.innovation)
     }
 
-    fn mean(&self) -> &DVector<f64> {
-        &self.core.x
-    }
-
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         out.copy_from(&self.p);
     }
 
     fn variance(&self, i: usize) -> f64 {
         self.p[(i, i)]
-    }
-
-    fn innovation(&self) -> &Innovation {
-        &self.core.innovation
-    }
-
-    fn noise(&self) -> &Noise {
-        &self.core.noise
-    }
-
-    fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError> {
-        self.core.check_noise(&noise)?;
-        self.core.noise = noise;
-        Ok(())
     }
 
     fn snapshot(&self) -> crate::filter::Snapshot {

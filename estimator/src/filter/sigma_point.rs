@@ -15,7 +15,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
-use crate::filter::core::{ensure_finite, Core};
+use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::correction::Correction;
 use crate::filter::covariance_root::CovarianceRoot;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
@@ -115,20 +115,10 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
 }
 
 impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
+    core_accessors!();
+
     fn kind(&self) -> FilterKind {
         self.kind
-    }
-
-    fn state_dim(&self) -> usize {
-        self.core.n()
-    }
-
-    fn measurement_dim(&self) -> usize {
-        self.core.m()
-    }
-
-    fn time(&self) -> f64 {
-        self.core.t
     }
 
     fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
@@ -211,30 +201,12 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         Ok(&self.core.innovation)
     }
 
-    fn mean(&self) -> &DVector<f64> {
-        &self.core.x
-    }
-
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         out.copy_from(&self.p);
     }
 
     fn variance(&self, i: usize) -> f64 {
         self.p[(i, i)]
-    }
-
-    fn innovation(&self) -> &Innovation {
-        &self.core.innovation
-    }
-
-    fn noise(&self) -> &Noise {
-        &self.core.noise
-    }
-
-    fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError> {
-        self.core.check_noise(&noise)?;
-        self.core.noise = noise;
-        Ok(())
     }
 
     fn snapshot(&self) -> crate::filter::Snapshot {

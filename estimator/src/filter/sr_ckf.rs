@@ -19,7 +19,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
-use crate::filter::core::{ensure_finite, Core};
+use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{axpy, dot, solve_lower, solve_lower_transposed, tria};
@@ -127,20 +127,10 @@ impl<M: Model> SquareRootCubature<M> {
 }
 
 impl<M: Model> StateEstimator for SquareRootCubature<M> {
+    core_accessors!();
+
     fn kind(&self) -> FilterKind {
         FilterKind::SrCkf
-    }
-
-    fn state_dim(&self) -> usize {
-        self.core.n()
-    }
-
-    fn measurement_dim(&self) -> usize {
-        self.core.m()
-    }
-
-    fn time(&self) -> f64 {
-        self.core.t
     }
 
     fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
@@ -310,10 +300,6 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         Ok(&self.core.innovation)
     }
 
-    fn mean(&self) -> &DVector<f64> {
-        &self.core.x
-    }
-
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         let n = self.core.n();
         for j in 0..n {
@@ -332,20 +318,6 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
 
     fn sqrt_covariance(&self) -> Option<&DMatrix<f64>> {
         Some(&self.s)
-    }
-
-    fn innovation(&self) -> &Innovation {
-        &self.core.innovation
-    }
-
-    fn noise(&self) -> &Noise {
-        &self.core.noise
-    }
-
-    fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError> {
-        self.core.check_noise(&noise)?;
-        self.core.noise = noise;
-        Ok(())
     }
 
     fn snapshot(&self) -> crate::filter::Snapshot {
