@@ -1,4 +1,5 @@
-"""Shared fixtures: the release build of the `scenarios` binary, built once per session."""
+"""Shared fixtures: the release builds of the `scenarios` and `analyzer`
+binaries and of the estimator FMUs, each built once per session."""
 
 from __future__ import annotations
 
@@ -13,10 +14,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # `import models`
 
 
-def build_scenarios(root: Path = ROOT) -> Path:
-    """`cargo build --release -p scenarios`; returns the path of the binary
-    (honouring CARGO_TARGET_DIR through `cargo metadata`)."""
-    subprocess.run(["cargo", "build", "--release", "-p", "scenarios"], cwd=root, check=True)
+def target_dir(root: Path = ROOT) -> Path:
+    """Cargo's target directory (honouring CARGO_TARGET_DIR), from `cargo metadata`."""
     meta = subprocess.run(
         ["cargo", "metadata", "--format-version", "1", "--no-deps"],
         cwd=root,
@@ -24,13 +23,55 @@ def build_scenarios(root: Path = ROOT) -> Path:
         capture_output=True,
         text=True,
     )
-    binary = Path(json.loads(meta.stdout)["target_directory"]) / "release" / "scenarios"
+    return Path(json.loads(meta.stdout)["target_directory"])
+
+
+def build_scenarios(root: Path = ROOT) -> Path:
+    """`cargo build --release -p scenarios`; returns the path of the binary."""
+    subprocess.run(["cargo", "build", "--release", "-p", "scenarios"], cwd=root, check=True)
+    binary = target_dir(root) / "release" / "scenarios"
     if not binary.is_file():
         raise FileNotFoundError(f"cargo build succeeded but {binary} is missing")
     return binary
+
+
+def build_analyzer(root: Path = ROOT) -> Path:
+    """`cargo build --release -p analyzer`; returns the path of the binary."""
+    subprocess.run(["cargo", "build", "--release", "-p", "analyzer"], cwd=root, check=True)
+    binary = target_dir(root) / "release" / "analyzer"
+    if not binary.is_file():
+        raise FileNotFoundError(f"cargo build succeeded but {binary} is missing")
+    return binary
+
+
+def build_fmus(out: Path, root: Path = ROOT) -> Path:
+    """`cargo build --release -p fmu`, then `package-fmus --out OUT`; returns OUT,
+    which holds one `<modelIdentifier>.fmu` per estimator."""
+    subprocess.run(["cargo", "build", "--release", "-p", "fmu"], cwd=root, check=True)
+    packager = target_dir(root) / "release" / "package-fmus"
+    if not packager.is_file():
+        raise FileNotFoundError(f"cargo build succeeded but {packager} is missing")
+    subprocess.run([str(packager), "--out", str(out)], cwd=root, check=True, capture_output=True, text=True)
+    return out
 
 
 @pytest.fixture(scope="session")
 def scenarios_bin() -> Path:
     """Path of target/release/scenarios, built once for the whole session."""
     yield build_scenarios()
+
+
+@pytest.fixture(scope="session")
+def analyzer_bin() -> Path:
+    """Path of target/release/analyzer, built once for the whole session."""
+    yield build_analyzer()
+
+
+@pytest.fixture(scope="session")
+def s1_fmu(tmp_path_factory) -> Path:
+    """Path of kalfmu_s1_load.fmu, built and packaged once for the whole
+    session into a pytest temporary directory."""
+    fmu = build_fmus(tmp_path_factory.mktemp("fmus")) / "kalfmu_s1_load.fmu"
+    if not fmu.is_file():
+        raise FileNotFoundError(f"package-fmus succeeded but {fmu} is missing")
+    yield fmu

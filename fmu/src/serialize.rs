@@ -83,6 +83,11 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Save
         return Err(format!("FMU state of another FMU (GUID {})", String::from_utf8_lossy(saved_guid)));
     }
     let state = ModelState::from_tag(r.u8()?).ok_or("bad model state tag")?;
+    // Only the states an instance can be saved in: a restored StartAndEnd or
+    // StepInProgress would refuse even fmi2Reset.
+    if matches!(state, ModelState::StartAndEnd | ModelState::StepInProgress | ModelState::StepCanceled) {
+        return Err(format!("bad model state {} (never saved)", state.name()));
+    }
     let (time, start_time) = (r.f64()?, r.f64()?);
     let (has_stop, stop) = (r.u8()?, r.f64()?);
     let (samples, last_successful_time, off_grid_reported) = (r.u64()?, r.f64()?, r.u8()? != 0);
@@ -106,6 +111,9 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Save
     };
     if r.at != bytes.len() {
         return Err(format!("{} trailing bytes after the FMU state", bytes.len() - r.at));
+    }
+    if filter.is_none() && matches!(state, ModelState::StepComplete | ModelState::StepFailed) {
+        return Err(format!("FMU state in {} without a filter", state.name()));
     }
     Ok(Saved {
         state,

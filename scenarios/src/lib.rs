@@ -1,7 +1,8 @@
 //! Truth simulators and study runners. Depends on the estimation library for
 //! the physical laws and the filters; the filters never see the truth.
 
-pub mod metrics;
+pub mod export;
+pub mod fmu_driver;
 pub mod replay;
 pub mod reproduce;
 pub mod s1;

@@ -4,6 +4,7 @@
 //!   scenarios reproduce [--study s1] [--quick]
 //!   scenarios s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
 //!   scenarios replay < spec.json > estimates.json
+//!   scenarios s1-export --case stiffness/random [--duration 60] [--seed 1] [--noise 0.02] --out s1.csv
 
 use std::process::ExitCode;
 
@@ -24,6 +25,8 @@ enum Command {
     S1Sweep(scenarios::sweep::Args),
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
+    /// Write the noisy accelerations and the true load of one S1 case as CSV (an FMU input table).
+    S1Export(scenarios::export::Args),
 }
 
 fn main() -> ExitCode {
@@ -32,6 +35,7 @@ fn main() -> ExitCode {
         Command::Reproduce(args) => scenarios::reproduce::run(args),
         Command::S1Sweep(args) => scenarios::sweep::run(args),
         Command::Replay(args) => scenarios::replay::run(args),
+        Command::S1Export(args) => scenarios::export::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,12 +1,20 @@
-//! `scenarios reproduce`: runs the studies end to end and prints our figures
-//! beside the papers'. Only study S1 exists so far; the others are listed as
-//! not built, never skipped silently.
+//! `scenarios reproduce`: the main job. For every study and case it runs the
+//! truth simulator, drives the packaged estimator FMU through the `fmi`
+//! importer exactly as an external simulator would, writes the MCAP log,
+//! analyses it with the analyzer (reading the log back, as a user would), and
+//! prints our figures beside the papers'. Studies not built yet are listed as
+//! such, never skipped silently.
 
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
-use anyhow::bail;
+use analyzer::read::read_log;
+use analyzer::report::{analyse, Options};
+use anyhow::{bail, Context};
 use estimator::FilterKind;
+use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::fmu_driver::ImportedFmu;
 use crate::s1::{self, Case, Settings};
 
 /// Command-line arguments of `scenarios reproduce`.
@@ -27,6 +35,12 @@ pub struct Args {
     /// Simulated duration in seconds (default 60, or 10 with --quick).
     #[arg(long)]
     pub duration: Option<f64>,
+    /// Where the packaged FMUs are (`package-fmus` writes them to target/fmu).
+    #[arg(long, default_value = "target/fmu")]
+    pub fmu_dir: PathBuf,
+    /// Where the logs, reports and recordings go.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
 }
 
 /// The studies of `SCENARIOS.md` and whether they are built.
@@ -60,7 +74,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ..Settings::default()
         };
         settings.validate().map_err(anyhow::Error::msg)?;
-        failures += report_s1(&settings);
+        failures += report_s1(&settings, &args.fmu_dir, &args.out)?;
     }
     if failures > 0 {
         bail!("{failures} filter run(s) failed");
@@ -68,8 +82,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Prints the S1 table; returns the number of failed runs.
-fn report_s1(settings: &Settings) -> usize {
+/// Runs S1 through its FMU and prints the table; returns the number of failed runs.
+fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
+    let fmu_path = fmu_dir.join("kalfmu_s1_load.fmu");
+    if !fmu_path.is_file() {
+        bail!(
+            "{} not found: package the FMUs first (cargo run --release -p fmu --bin package-fmus), or run scripts/reproduce",
+            fmu_path.display()
+        );
+    }
+    let fmu = ImportedFmu::load(&fmu_path)?;
+    let dir = out.join("s1");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     println!(
         "S1: dynamic load on a 2-DOF nonlinear chain — {} s at {} Hz, truth RK4 at {:.0e} s, accelerometer noise {:.1} % of RMS, seed {}",
         settings.duration,
@@ -78,28 +102,46 @@ fn report_s1(settings: &Settings) -> usize {
         100.0 * settings.noise_fraction,
         settings.seed
     );
+    println!("estimates from {} driven through the fmi importer; logs, reports and recordings in {}", fmu_path.display(), dir.display());
     println!(
-        "running RMSE over a trailing {} s window; 'converged' = after the convergence time (see scenarios/src/metrics.rs)",
+        "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
         settings.rmse_window
     );
+    let runs = (Case::ALL.len() * FilterKind::ALL.len()) as u64;
+    let ticks_per_run = (settings.samples() / 1000) as u64;
+    let bar = ProgressBar::new(runs * ticks_per_run.max(1));
+    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]").expect("a valid template"));
     let mut table = String::new();
     let _ = writeln!(
         table,
-        "{:<19} {:<8} {:>8} {:>7} {:>10} {:>11} {:>8} {:>13} {:>8} {:>7}",
-        "case", "filter", "corr", "paper", "RMSE conv", "run. peak", "paper", "run. max conv", "paper", "t_conv"
+        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}",
+        "case", "filter", "corr", "paper", "RMSE conv", "run.peak", "paper", "run.max cv", "paper", "t_conv", "PSD ±3dB Hz"
     );
     let mut failures = 0;
     for case in Case::ALL {
         let (truth, measurements) = s1::simulate(&case, settings);
         let published = case.published();
         for kind in FilterKind::ALL {
-            let run = s1::run_filter(kind, &case, settings, &truth, &measurements);
+            bar.set_message(format!("{case} {kind}"));
+            let stem = dir.join(format!("{}_{}", case.to_string().replace('/', "_"), kind.name().to_lowercase().replace('-', "")));
+            let log = stem.with_extension("mcap");
+            let result = s1::fmu_run::run(&fmu, kind, &case, settings, &truth, &measurements, &log, &|| bar.inc(1))
+                .and_then(|()| {
+                    let run = read_log(&log)?;
+                    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
+                    let report = analyse(&run, &options)?;
+                    report.write_json(&stem.with_extension("json"))?;
+                    Ok(report)
+                });
             let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-            match (&run.comparison, &run.failure) {
-                (Some(c), _) => {
+            match result {
+                Ok(report) => {
+                    let pair = report.pairs.iter().find(|p| p.truth == "F").context("the report has no load pair")?;
+                    let c = &pair.comparison;
+                    let band = pair.psd_agreement_band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
                     let _ = writeln!(
                         table,
-                        "{:<19} {:<8} {:>8.5} {:>7.3} {:>10.4} {:>11.3} {:>8} {:>13.4} {:>8} {:>6.2}s",
+                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}",
                         case.to_string(),
                         kind.name(),
                         c.correlation,
@@ -109,18 +151,19 @@ fn report_s1(settings: &Settings) -> usize {
                         paper(published.running_rmse_peak),
                         c.running_rmse_max_converged,
                         paper(published.running_rmse_max_converged),
-                        c.convergence_time
+                        c.convergence_time,
+                        band
                     );
                 }
-                (None, failure) => {
+                Err(e) => {
                     failures += 1;
-                    let why = failure.as_deref().unwrap_or("no result");
-                    let _ = writeln!(table, "{:<19} {:<8} FAILED: {why}", case.to_string(), kind.name());
+                    let _ = writeln!(table, "{:<19} {:<8} FAILED: {e:#}", case.to_string(), kind.name());
                 }
             }
         }
     }
+    bar.finish_and_clear();
     print!("{table}");
     println!("paper: SRCKF figures of Gong et al. 2024 (correlation; running-RMSE peak; bound after the start), N");
-    failures
+    Ok(failures)
 }

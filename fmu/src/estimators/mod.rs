@@ -198,3 +198,24 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_guid_changes_with_any_change_of_the_interface() {
+        let d = &all()[0];
+        assert_eq!(guid_of(d.model_identifier, &d.variables), d.guid());
+        let mut renamed = d.variables.clone();
+        renamed[0].name = "renamed";
+        let mut retyped = d.variables.clone();
+        retyped[0].unit = Some("m/s");
+        let mut reordered = d.variables.clone();
+        reordered.swap(0, 1);
+        for changed in [renamed, retyped, reordered, d.variables[1..].to_vec()] {
+            assert_ne!(guid_of(d.model_identifier, &changed), d.guid());
+        }
+        assert_ne!(guid_of("other_identifier", &d.variables), d.guid());
+    }
+}

@@ -9,8 +9,9 @@
 //! fraction of each channel's RMS is added to the two accelerations; the
 //! estimator (augmented state `[z₁, z₂, F, ż₁, ż₂, Ḟ]`, RK4 once per sample)
 //! sees only those noisy accelerations; the estimated load is compared with
-//! the true one ([`crate::metrics`]).
+//! the true one ([`analyzer::metrics`]).
 
+pub mod fmu_run;
 pub mod load;
 pub mod plant;
 
@@ -23,7 +24,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::metrics::{compare, Comparison};
+use analyzer::metrics::{compare, Comparison};
 use load::Load;
 use plant::Truth;
 
@@ -113,6 +114,18 @@ impl fmt::Display for Case {
             LoadKind::Harmonic => "harmonic",
         };
         write!(f, "{n}/{l}")
+    }
+}
+
+/// Parses the [`Display`](fmt::Display) form, e.g. `stiffness/random`.
+impl std::str::FromStr for Case {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Case::ALL.into_iter().find(|c| c.to_string() == s).ok_or_else(|| {
+            let names: Vec<String> = Case::ALL.iter().map(Case::to_string).collect();
+            format!("unknown case '{s}'; expected one of {}", names.join(", "))
+        })
     }
 }
 
@@ -235,27 +248,86 @@ pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
 /// * `R` is the accelerometers' noise variance (the sensor specification).
 /// * The prior: the chain starts at rest (σ 1 mm, 1 mm/s), the load is unknown
 ///   (σ 20 N, 500 N/s).
-pub fn tuning(settings: &Settings, noise_std: [f64; 2]) -> (Noise, Gaussian) {
-    let dt = settings.dt();
-    const LOAD_RMS: f64 = 10.0;
-    const LOAD_BANDWIDTH: f64 = 10.0;
-    // The same prior knowledge holds for both loads of the paper (the harmonics end at 7 Hz).
-    let q_load = LOAD_RMS.powi(2) * (std::f64::consts::TAU * LOAD_BANDWIDTH).powi(4) / 5.0 * dt;
-    let mut q = DMatrix::zeros(6, 6);
-    for i in [0, 1] {
-        q[(i, i)] = 1e-12;
-        q[(i + 3, i + 3)] = 1e-10;
+pub struct Tuning {
+    /// Process noise std of z₁, z₂ per sample (m).
+    pub position_std: f64,
+    /// Process noise std of ż₁, ż₂ per sample (m/s).
+    pub velocity_std: f64,
+    /// Intensity `q` of the white `F̈` (N²/s³).
+    pub load_intensity: f64,
+    /// Accelerometer noise std (m/s²).
+    pub sensor_std: [f64; 2],
+    /// Prior std of `[z₁, z₂, F, ż₁, ż₂, Ḟ]`.
+    pub prior_std: [f64; 6],
+    /// Sample time (s).
+    pub dt: f64,
+}
+
+impl Tuning {
+    /// The study's setting for these settings and accelerometer noise.
+    pub fn new(settings: &Settings, noise_std: [f64; 2]) -> Self {
+        const LOAD_RMS: f64 = 10.0;
+        const LOAD_BANDWIDTH: f64 = 10.0;
+        let dt = settings.dt();
+        Self {
+            position_std: 1e-6,
+            velocity_std: 1e-5,
+            // The same prior knowledge holds for both loads of the paper (the harmonics end at 7 Hz).
+            load_intensity: LOAD_RMS.powi(2) * (std::f64::consts::TAU * LOAD_BANDWIDTH).powi(4) / 5.0 * dt,
+            sensor_std: noise_std,
+            prior_std: [1e-3, 1e-3, 20.0, 1e-3, 1e-3, 500.0],
+            dt,
+        }
     }
-    let (f, fd) = (Oscillator2DofLoad::LOAD, Oscillator2DofLoad::LOAD + 3);
-    q[(f, f)] = q_load * dt.powi(3) / 3.0;
-    q[(f, fd)] = q_load * dt.powi(2) / 2.0;
-    q[(fd, f)] = q[(f, fd)];
-    q[(fd, fd)] = q_load * dt;
-    let r =
-        DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(&[noise_std[0].powi(2), noise_std[1].powi(2)]));
-    let noise = Noise::new(q, r).expect("the S1 tuning is a valid covariance pair");
-    let prior = Gaussian::diagonal(&[0.0; 6], &[1e-6, 1e-6, 400.0, 1e-6, 1e-6, 2.5e5]);
-    (noise, prior)
+
+    /// `Q` and `R` for the library's filters.
+    pub fn noise(&self) -> Noise {
+        let (dt, q_load) = (self.dt, self.load_intensity);
+        let mut q = DMatrix::zeros(6, 6);
+        for i in [0, 1] {
+            q[(i, i)] = self.position_std.powi(2);
+            q[(i + 3, i + 3)] = self.velocity_std.powi(2);
+        }
+        let (f, fd) = (Oscillator2DofLoad::LOAD, Oscillator2DofLoad::LOAD + 3);
+        q[(f, f)] = q_load * dt.powi(3) / 3.0;
+        q[(f, fd)] = q_load * dt.powi(2) / 2.0;
+        q[(fd, f)] = q[(f, fd)];
+        q[(fd, fd)] = q_load * dt;
+        let r = DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(&[
+            self.sensor_std[0].powi(2),
+            self.sensor_std[1].powi(2),
+        ]));
+        Noise::new(q, r).expect("the S1 tuning is a valid covariance pair")
+    }
+
+    /// The prior: zero mean, the documented deviations.
+    pub fn prior(&self) -> Gaussian {
+        Gaussian::diagonal(&[0.0; 6], &self.prior_std.map(|s| s * s))
+    }
+
+    /// The same setting as the estimator FMU's parameters.
+    pub fn fmu_parameters(&self) -> Vec<(&'static str, f64)> {
+        let p = self.prior_std;
+        vec![
+            ("q_z_std", self.position_std),
+            ("q_z_dot_std", self.velocity_std),
+            ("load_noise_intensity", self.load_intensity),
+            ("r_z1_ddot_std", self.sensor_std[0]),
+            ("r_z2_ddot_std", self.sensor_std[1]),
+            ("p0_z1_std", p[0]),
+            ("p0_z2_std", p[1]),
+            ("p0_F_std", p[2]),
+            ("p0_z1_dot_std", p[3]),
+            ("p0_z2_dot_std", p[4]),
+            ("p0_F_dot_std", p[5]),
+            ("x0_z1", 0.0),
+            ("x0_z2", 0.0),
+            ("x0_F", 0.0),
+            ("x0_z1_dot", 0.0),
+            ("x0_z2_dot", 0.0),
+            ("x0_F_dot", 0.0),
+        ]
+    }
 }
 
 /// The result of one filter on one case.
@@ -292,7 +364,8 @@ pub fn run_filter(
     truth: &Truth,
     measurements: &Measurements,
 ) -> FilterRun {
-    let (noise, prior) = tuning(settings, measurements.noise_std);
+    let tuning = Tuning::new(settings, measurements.noise_std);
+    let (noise, prior) = (tuning.noise(), tuning.prior());
     let model = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), 1);
     let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let mut run = FilterRun { kind, load: Vec::new(), load_std: Vec::new(), comparison: None, failure: None };
@@ -312,6 +385,6 @@ pub fn run_filter(
         run.load.push(filter.mean()[Oscillator2DofLoad::LOAD]);
         run.load_std.push(filter.variance(Oscillator2DofLoad::LOAD).max(0.0).sqrt());
     }
-    run.comparison = Some(compare(&truth.load, &run.load, dt, settings.rmse_window));
+    run.comparison = Some(compare(&truth.load, &run.load, truth.time[0], dt, settings.rmse_window));
     run
 }

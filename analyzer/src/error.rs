@@ -1,0 +1,91 @@
+//! The analyzer's one error type: every message names the file, and where it
+//! applies the channel, the signal and the time.
+
+use std::path::PathBuf;
+
+/// What went wrong reading or analysing a log.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    /// The file could not be read or written.
+    #[error("{file}: {source}")]
+    Io {
+        /// The file.
+        file: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The MCAP container is truncated or corrupt.
+    #[error("{file}: not a readable MCAP file: {source}")]
+    Mcap {
+        /// The file.
+        file: PathBuf,
+        /// What the MCAP reader found.
+        source: mcap::McapError,
+    },
+    /// A channel the analysis needs is not in the log.
+    #[error("{file}: channel {channel} is missing (the log has: {present})")]
+    MissingChannel {
+        /// The file.
+        file: PathBuf,
+        /// The channel.
+        channel: String,
+        /// The channels it has.
+        present: String,
+    },
+    /// A channel's schema or encoding is not the log format's.
+    #[error("{file}: channel {channel}: {what}")]
+    Schema {
+        /// The file.
+        file: PathBuf,
+        /// The channel.
+        channel: String,
+        /// What does not match.
+        what: String,
+    },
+    /// A message does not match its channel's schema.
+    #[error("{file}: channel {channel} at t = {time} s: {what}")]
+    Message {
+        /// The file.
+        file: PathBuf,
+        /// The channel.
+        channel: String,
+        /// Simulation time of the message.
+        time: f64,
+        /// What is wrong.
+        what: String,
+    },
+    /// Time does not increase within a channel.
+    #[error("{file}: channel {channel}: time goes from {previous} s back to {time} s (message {index})")]
+    NonMonotonicTime {
+        /// The file.
+        file: PathBuf,
+        /// The channel.
+        channel: String,
+        /// The earlier time.
+        previous: f64,
+        /// The time that is not later.
+        time: f64,
+        /// Index of the message in the channel.
+        index: usize,
+    },
+    /// A signal the analysis uses has a NaN or infinite value.
+    #[error("{file}: channel {channel}, signal {signal}: not finite at t = {time} s")]
+    NotFinite {
+        /// The file.
+        file: PathBuf,
+        /// The channel.
+        channel: String,
+        /// The signal.
+        signal: String,
+        /// Time of the first bad value.
+        time: f64,
+    },
+    /// The analysis cannot be done as asked (pairing, lengths).
+    #[error("{file}: {what}")]
+    Analysis {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong.
+        what: String,
+    },
+}

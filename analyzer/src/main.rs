@@ -1,0 +1,83 @@
+//! `analyzer`: metrics and recordings from kalfmu MCAP logs.
+//!
+//! Usage:
+//!   analyzer report RUN.mcap [--json OUT.json] [--pair truth.X=estimate.Y]…
+//!
+//! Exit codes: 0 done, 1 the log or the analysis failed (the message names
+//! the file, channel and time), 2 bad arguments.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use analyzer::read::read_log;
+use analyzer::report::{analyse, Options};
+use clap::{Parser, Subcommand};
+
+#[derive(Debug, Parser)]
+#[command(name = "analyzer", version, about = "Metrics and recordings from kalfmu MCAP logs")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Pair estimates with truth, print the metrics, write JSON.
+    Report(ReportArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct ReportArgs {
+    /// The MCAP log.
+    log: PathBuf,
+    /// Write the metrics as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Pair a truth signal with an estimate signal: truth.X=estimate.Y (repeatable).
+    #[arg(long = "pair", value_parser = parse_pair)]
+    pairs: Vec<(String, String)>,
+    /// Running-RMSE window in seconds.
+    #[arg(long, default_value_t = 1.0)]
+    rmse_window: f64,
+    /// Welch segment length in samples.
+    #[arg(long, default_value_t = 1024)]
+    psd_segment: usize,
+}
+
+fn parse_pair(s: &str) -> Result<(String, String), String> {
+    let (t, e) = s.split_once('=').ok_or("expected truth.X=estimate.Y")?;
+    let t = t.strip_prefix("truth.").ok_or("the left side must be truth.<signal>")?;
+    let e = e.strip_prefix("estimate.").ok_or("the right side must be estimate.<signal>")?;
+    Ok((t.to_string(), e.to_string()))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(&cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
+    match &cli.command {
+        Command::Report(args) => {
+            let run = read_log(&args.log)?;
+            let options = Options {
+                rmse_window: args.rmse_window,
+                psd_segment: args.psd_segment,
+                pairs: args.pairs.clone(),
+                ..Options::default()
+            };
+            let report = analyse(&run, &options)?;
+            print!("{}", report.table());
+            if let Some(path) = &args.json {
+                report.write_json(path)?;
+            }
+            Ok(())
+        }
+    }
+}

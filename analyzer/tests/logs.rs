@@ -1,0 +1,153 @@
+//! The log format round-trips, the report computes what it should, and every
+//! kind of bad input is a clear error naming the file, channel and time.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
+use analyzer::read::read_log;
+use analyzer::report::{analyse, Options};
+use analyzer::LogError;
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kalfmu-analyzer-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// 20 s at 100 Hz: truth `F = 10 sin(2π·1.5 t)`, estimate = truth + a small
+/// deterministic error, σ = 0.1, and a measurement with one missing value.
+fn write_run(path: &Path, mutate: impl Fn(usize, &mut f64, &mut f64)) {
+    let metadata = BTreeMap::from([("study".to_string(), "test".to_string()), ("seed".to_string(), "7".to_string())]);
+    let mut w = LogWriter::create(path, &metadata).unwrap();
+    let m = w.add_channel(MEASUREMENTS, &[SignalSpec::new("a", "m/s2", "acceleration")]).unwrap();
+    let t = w.add_channel(TRUTH, &[SignalSpec::new("F", "N", "true load")]).unwrap();
+    let e = w
+        .add_channel(ESTIMATE, &[SignalSpec::new("F", "N", "estimated load"), SignalSpec::new("F_std", "N", "its deviation")])
+        .unwrap();
+    for k in 0..2000 {
+        let mut time = k as f64 * 0.01;
+        let truth = 10.0 * (2.0 * std::f64::consts::PI * 1.5 * time).sin();
+        let mut estimate = truth + 0.05 * ((k * 7919 % 13) as f64 - 6.0) / 6.0;
+        mutate(k, &mut time, &mut estimate);
+        w.write(m, time, &[if k == 5 { f64::NAN } else { truth / 8.0 }]).unwrap();
+        w.write(t, time, &[truth]).unwrap();
+        w.write(e, time, &[estimate, 0.1]).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_log_round_trips_with_its_metadata_units_and_missing_values() {
+    let path = temp("roundtrip.mcap");
+    write_run(&path, |_, _, _| {});
+    let run = read_log(&path).unwrap();
+    assert_eq!(run.metadata["seed"], "7");
+    let m = run.channel(MEASUREMENTS).unwrap();
+    assert_eq!(m.time.len(), 2000);
+    assert!(m.signal("a").unwrap().values[5].is_nan(), "null reads back as NaN");
+    let e = run.channel(ESTIMATE).unwrap();
+    assert_eq!(e.signal("F").unwrap().spec.unit, "N");
+    assert_eq!(e.time[1], 0.01);
+}
+
+#[test]
+fn the_report_pairs_by_name_and_measures_the_known_error() {
+    let path = temp("report.mcap");
+    write_run(&path, |_, _, _| {});
+    let report = analyse(&read_log(&path).unwrap(), &Options::default()).unwrap();
+    assert_eq!(report.pairs.len(), 1);
+    let p = &report.pairs[0];
+    assert_eq!((p.truth.as_str(), p.estimate.as_str(), p.samples), ("F", "F", 2000));
+    assert!(p.comparison.correlation > 0.9999);
+    assert!(p.comparison.rmse < 0.05 && p.comparison.rmse > 0.01, "{}", p.comparison.rmse);
+    assert_eq!(p.two_sigma_coverage, Some(1.0), "every error is within 2σ = 0.2");
+    let (lo, hi) = p.psd_agreement_band.unwrap();
+    assert!(lo <= 1.5 && hi >= 1.5, "the spectra agree around the 1.5 Hz line: {lo}–{hi}");
+    assert!(report.table().contains("F"));
+}
+
+#[test]
+fn an_explicit_pair_replaces_the_naming_rule_and_a_bad_pair_is_named() {
+    let path = temp("pair.mcap");
+    write_run(&path, |_, _, _| {});
+    let run = read_log(&path).unwrap();
+    let options = Options { pairs: vec![("F".into(), "F_std".into())], ..Options::default() };
+    let report = analyse(&run, &options).unwrap();
+    assert_eq!((report.pairs[0].truth.as_str(), report.pairs[0].estimate.as_str()), ("F", "F_std"));
+    let options = Options { pairs: vec![("F".into(), "G".into())], ..Options::default() };
+    let err = analyse(&run, &options).unwrap_err().to_string();
+    assert!(err.contains("/estimate has no signal 'G'"), "{err}");
+}
+
+#[test]
+fn a_truncated_or_corrupt_file_is_an_error_naming_it() {
+    let path = temp("whole.mcap");
+    write_run(&path, |_, _, _| {});
+    let bytes = std::fs::read(&path).unwrap();
+    let truncated = temp("truncated.mcap");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let err = read_log(&truncated).unwrap_err();
+    assert!(matches!(err, LogError::Mcap { .. }), "{err}");
+    assert!(err.to_string().contains("truncated.mcap"), "{err}");
+    let mut corrupt = bytes.clone();
+    for b in &mut corrupt[200..400] {
+        *b ^= 0x5a;
+    }
+    let corrupt_path = temp("corrupt.mcap");
+    std::fs::write(&corrupt_path, &corrupt).unwrap();
+    assert!(read_log(&corrupt_path).unwrap_err().to_string().contains("corrupt.mcap"));
+    let err = read_log(&temp("absent.mcap")).unwrap_err();
+    assert!(matches!(err, LogError::Io { .. }) && err.to_string().contains("absent.mcap"), "{err}");
+}
+
+#[test]
+fn a_missing_channel_is_named_with_the_channels_present() {
+    let path = temp("no_truth.mcap");
+    let mut w = LogWriter::create(&path, &BTreeMap::new()).unwrap();
+    let e = w.add_channel(ESTIMATE, &[SignalSpec::new("F", "N", "estimate")]).unwrap();
+    for k in 0..10 {
+        w.write(e, k as f64, &[1.0]).unwrap();
+    }
+    w.finish().unwrap();
+    let err = analyse(&read_log(&path).unwrap(), &Options::default()).unwrap_err().to_string();
+    assert!(err.contains("channel /truth is missing (the log has: /estimate)"), "{err}");
+}
+
+#[test]
+fn a_schema_mismatch_is_named_with_its_channel() {
+    let path = temp("cdr.mcap");
+    let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    let mut w = mcap::WriteOptions::new().create(file).unwrap();
+    let schema = w.add_schema("x", "ros2msg", b"float64 F").unwrap();
+    let channel = w.add_channel(schema, TRUTH, "cdr", &BTreeMap::new()).unwrap();
+    let header = mcap::records::MessageHeader { channel_id: channel, sequence: 0, log_time: 0, publish_time: 0 };
+    w.write_to_known_channel(&header, &[0u8; 8]).unwrap();
+    w.finish().unwrap();
+    let err = read_log(&path).unwrap_err().to_string();
+    assert!(err.contains("channel /truth: message encoding is 'cdr', not json"), "{err}");
+}
+
+#[test]
+fn time_going_backwards_is_named_with_both_times() {
+    let path = temp("backwards.mcap");
+    write_run(&path, |k, time, _| {
+        if k == 100 {
+            *time = 0.5;
+        }
+    });
+    let err = read_log(&path).unwrap_err().to_string();
+    assert!(err.contains("channel /measurements: time goes from 0.99 s back to 0.5 s (message 100)"), "{err}");
+}
+
+#[test]
+fn a_nan_in_a_compared_signal_is_an_error_naming_channel_signal_and_time() {
+    let path = temp("nan.mcap");
+    write_run(&path, |k, _, estimate| {
+        if k == 300 {
+            *estimate = f64::NAN;
+        }
+    });
+    let err = analyse(&read_log(&path).unwrap(), &Options::default()).unwrap_err().to_string();
+    assert!(err.contains("channel /estimate, signal F: not finite at t = 3 s"), "{err}");
+}

@@ -1,0 +1,123 @@
+//! Drives a packaged FMU through the `fmi` crate's importer, as an external
+//! co-simulation master would: instantiate, set parameters by name,
+//! initialise, then per communication step set the inputs, `fmi2DoStep`, and
+//! read the outputs. Nothing here knows the estimator inside.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context};
+use fmi::fmi2::import::Fmi2Import;
+use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
+use fmi::traits::{FmiImport, FmiInstance};
+
+/// An imported FMU: its variables by name, and instances made from it.
+pub struct ImportedFmu {
+    import: Fmi2Import,
+    variables: HashMap<String, u32>,
+    units: HashMap<String, String>,
+}
+
+impl ImportedFmu {
+    /// Unpacks and loads the `.fmu` at `path`.
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let import: Fmi2Import =
+            fmi::import::from_path(path).with_context(|| format!("cannot import the FMU {}", path.display()))?;
+        let variables = import
+            .model_description()
+            .model_variables
+            .variables
+            .iter()
+            .map(|v| (v.name.clone(), v.value_reference))
+            .collect();
+        let units = units_of(path)?;
+        Ok(Self { import, variables, units })
+    }
+
+    /// The value reference of the variable `name`.
+    pub fn vr(&self, name: &str) -> anyhow::Result<u32> {
+        self.variables.get(name).copied().ok_or_else(|| anyhow!("the FMU has no variable '{name}'"))
+    }
+
+    /// The unit declared for `name` (empty if none).
+    pub fn unit(&self, name: &str) -> String {
+        self.units.get(name).cloned().unwrap_or_default()
+    }
+
+    /// A new instance, initialised from `start_time` to `stop_time` with these
+    /// parameters (Reals and Integers/Enumerations by name).
+    pub fn instantiate(
+        &self,
+        name: &str,
+        start_time: f64,
+        stop_time: f64,
+        reals: &[(&str, f64)],
+        integers: &[(&str, i32)],
+    ) -> anyhow::Result<Instance> {
+        let mut cs = self.import.instantiate_cs(name, false, true).map_err(|e| anyhow!("fmi2Instantiate: {e}"))?;
+        FmiInstance::enter_initialization_mode(&mut cs, None, start_time, Some(stop_time))
+            .map_err(|e| anyhow!("fmi2SetupExperiment/EnterInitializationMode: {e}"))?;
+        let (vrs, values): (Vec<u32>, Vec<f64>) =
+            reals.iter().map(|(n, v)| self.vr(n).map(|vr| (vr, *v))).collect::<anyhow::Result<Vec<_>>>()?.into_iter().unzip();
+        Common::set_real(&mut cs, &vrs, &values).map_err(|e| anyhow!("fmi2SetReal of the parameters: {e}"))?;
+        let (vrs, values): (Vec<u32>, Vec<i32>) = integers
+            .iter()
+            .map(|(n, v)| self.vr(n).map(|vr| (vr, *v)))
+            .collect::<anyhow::Result<Vec<_>>>()?
+            .into_iter()
+            .unzip();
+        Common::set_integer(&mut cs, &vrs, &values).map_err(|e| anyhow!("fmi2SetInteger of the parameters: {e}"))?;
+        Common::exit_initialization_mode(&mut cs).map_err(|e| anyhow!("fmi2ExitInitializationMode: {e}"))?;
+        Ok(Instance { cs, time: start_time })
+    }
+}
+
+/// A running instance.
+pub struct Instance {
+    cs: InstanceCS,
+    time: f64,
+}
+
+impl Instance {
+    /// Sets the inputs, steps by `h`, and reads `outputs` into `values`.
+    pub fn step(&mut self, inputs: &[u32], values_in: &[f64], h: f64, outputs: &[u32], values: &mut [f64]) -> anyhow::Result<()> {
+        Common::set_real(&mut self.cs, inputs, values_in).map_err(|e| anyhow!("fmi2SetReal at t = {}: {e}", self.time))?;
+        self.cs.do_step(self.time, h, true).map_err(|e| anyhow!("fmi2DoStep at t = {}: {e}", self.time))?;
+        self.time += h;
+        Common::get_real(&mut self.cs, outputs, values).map_err(|e| anyhow!("fmi2GetReal at t = {}: {e}", self.time))?;
+        if values.iter().any(|v| !v.is_finite()) {
+            bail!("the FMU returned a non-finite output at t = {}", self.time);
+        }
+        Ok(())
+    }
+
+    /// `fmi2Terminate`.
+    pub fn terminate(mut self) -> anyhow::Result<()> {
+        Common::terminate(&mut self.cs).map_err(|e| anyhow!("fmi2Terminate: {e}"))?;
+        Ok(())
+    }
+}
+
+/// The `unit` of every variable, read from the FMU's `modelDescription.xml`
+/// (`fmi-schema` does not keep units).
+fn units_of(path: &Path) -> anyhow::Result<HashMap<String, String>> {
+    let file = std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let mut archive = zip::ZipArchive::new(file).with_context(|| format!("{} is not a zip archive", path.display()))?;
+    let mut xml = String::new();
+    std::io::Read::read_to_string(
+        &mut archive.by_name("modelDescription.xml").with_context(|| format!("{} has no modelDescription.xml", path.display()))?,
+        &mut xml,
+    )?;
+    let attribute = |text: &str, key: &str| -> Option<String> {
+        let start = text.find(&format!("{key}=\""))? + key.len() + 2;
+        Some(text[start..start + text[start..].find('"')?].to_string())
+    };
+    let mut units = HashMap::new();
+    for variable in xml.split("<ScalarVariable ").skip(1) {
+        let body = variable.split("</ScalarVariable>").next().unwrap_or_default();
+        if let (Some(name), Some(unit)) = (attribute(body, "name"), attribute(body, "unit")) {
+            units.insert(name, unit);
+        }
+    }
+    Ok(units)
+}

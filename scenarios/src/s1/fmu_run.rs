@@ -1,0 +1,126 @@
+//! One S1 case through the packaged estimator FMU: the truth simulator's
+//! noisy accelerations are the FMU's inputs, sample by sample, and the run is
+//! logged in the kalfmu MCAP format (`docs/log-format.md`): the measurements,
+//! the truth and every FMU output.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
+use anyhow::Context;
+use estimator::FilterKind;
+
+use super::plant::Truth;
+use super::{Case, Measurements, Settings, Tuning};
+use crate::fmu_driver::ImportedFmu;
+
+/// The FMU's outputs that are logged on `/estimate`; those without `_std`
+/// have a namesake on `/truth`.
+const OUTPUTS: [&str; 13] =
+    ["F", "F_std", "z1", "z1_std", "z2", "z2_std", "z1_dot", "z1_dot_std", "z2_dot", "z2_dot_std", "F_dot", "F_dot_std", "nis"];
+
+/// The FMU's enumeration value of a filter kind (`FilterKind` in its modelDescription).
+fn filter_enumeration(kind: FilterKind) -> i32 {
+    FilterKind::ALL.iter().position(|k| *k == kind).expect("every kind is listed") as i32 + 1
+}
+
+/// The FMU parameters of a case: the paper's chain and the study's one tuning.
+fn parameters(case: &Case, settings: &Settings, measurements: &Measurements) -> Vec<(&'static str, f64)> {
+    let chain = case.chain();
+    let (k, c) = (chain.k1, chain.c1);
+    let (ks, kb) = (k.slopes(), k.breaks());
+    let (cs, cb) = (c.slopes(), c.breaks());
+    // A linear element is a law of three equal slopes; its breakpoints are then irrelevant.
+    let breaks = |b: [f64; 2], default: [f64; 2]| if b[0].is_finite() { b } else { default };
+    let (kb, cb) = (breaks(kb, [0.1, 0.2]), breaks(cb, [0.05, 0.1]));
+    let mut p = vec![
+        ("m1", chain.m1),
+        ("m2", chain.m2),
+        ("k11", ks[0]),
+        ("k12", ks[1]),
+        ("k13", ks[2]),
+        ("delta1", kb[0]),
+        ("delta2", kb[1]),
+        ("c11", cs[0]),
+        ("c12", cs[1]),
+        ("c13", cs[2]),
+        ("eps1", cb[0]),
+        ("eps2", cb[1]),
+        ("k2", chain.k2),
+        ("c2", chain.c2),
+        ("sample_time", settings.dt()),
+        ("ukf_alpha", 1.0),
+        ("ukf_beta", 2.0),
+        ("ukf_kappa", 0.0),
+    ];
+    p.extend(Tuning::new(settings, measurements.noise_std).fmu_parameters());
+    p
+}
+
+/// Runs `kind` on a case through the FMU and writes the log to `log`.
+pub fn run(
+    fmu: &ImportedFmu,
+    kind: FilterKind,
+    case: &Case,
+    settings: &Settings,
+    truth: &Truth,
+    measurements: &Measurements,
+    log: &Path,
+    progress: &dyn Fn(),
+) -> anyhow::Result<()> {
+    let dt = settings.dt();
+    let samples = truth.time.len();
+    let params = parameters(case, settings, measurements);
+    let mut instance = fmu.instantiate(
+        &format!("s1-{case}-{kind}"),
+        0.0,
+        samples as f64 * dt,
+        &params,
+        &[("filter", filter_enumeration(kind)), ("rk4_substeps", 1)],
+    )?;
+    let inputs = [fmu.vr("z1_ddot")?, fmu.vr("z2_ddot")?];
+    let outputs: Vec<u32> = OUTPUTS.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
+
+    let parameters_json = serde_json::to_string(&params.iter().map(|(n, v)| (n.to_string(), *v)).collect::<BTreeMap<_, _>>())?;
+    let metadata = BTreeMap::from([
+        ("study".to_string(), "S1".to_string()),
+        ("case".to_string(), case.to_string()),
+        ("seed".to_string(), settings.seed.to_string()),
+        ("filter".to_string(), kind.name().to_string()),
+        ("noise_fraction".to_string(), settings.noise_fraction.to_string()),
+        ("parameters".to_string(), parameters_json),
+        ("software".to_string(), format!("kalfmu {}", env!("CARGO_PKG_VERSION"))),
+    ]);
+    let mut w = LogWriter::create(log, &metadata)?;
+    let unit = |n: &str| fmu.unit(n);
+    let ch_m = w.add_channel(
+        MEASUREMENTS,
+        &[
+            SignalSpec::new("z1_ddot", &unit("z1_ddot"), "measured acceleration of mass 1"),
+            SignalSpec::new("z2_ddot", &unit("z2_ddot"), "measured acceleration of mass 2"),
+        ],
+    )?;
+    let truth_names = ["F", "z1", "z2", "z1_dot", "z2_dot", "F_dot"];
+    let truth_specs: Vec<SignalSpec> =
+        truth_names.iter().map(|n| SignalSpec::new(n, &unit(n), "true value (truth simulator)")).collect();
+    let ch_t = w.add_channel(TRUTH, &truth_specs)?;
+    let estimate_specs: Vec<SignalSpec> = OUTPUTS.iter().map(|n| SignalSpec::new(n, &unit(n), "FMU output")).collect();
+    let ch_e = w.add_channel(ESTIMATE, &estimate_specs)?;
+
+    let mut out = vec![0.0; outputs.len()];
+    for k in 0..samples {
+        let z = measurements.acceleration[k];
+        instance.step(&inputs, &z, dt, &outputs, &mut out).with_context(|| format!("{case} {kind}"))?;
+        let t = truth.time[k];
+        let [z1, z2, v1, v2] = truth.motion[k];
+        w.write(ch_m, t, &z)?;
+        w.write(ch_t, t, &[truth.load[k], z1, z2, v1, v2, truth.load_rate[k]])?;
+        w.write(ch_e, t, &out)?;
+        if k % 1000 == 999 {
+            progress();
+        }
+    }
+    instance.terminate()?;
+    w.finish()?;
+    Ok(())
+}

@@ -1,0 +1,343 @@
+"""`analyzer report` on logs written from Python (tests/mcap_example.py), its
+metrics checked against independent NumPy/SciPy computations on the same data.
+
+What is specified here:
+
+- the analyzer reads the log the Python example writes (fmpy + `mcap`) as it
+  reads its own: the report succeeds, pairs /truth F with /estimate F (σ from
+  F_std), over every sample, with the metadata and the FMU's units;
+- correlation, RMSE, RMSE after convergence, the final relative error and the
+  ±2σ coverage equal NumPy's on the paired samples (1e-12 relative; the
+  coverage, a count, exactly);
+- the running-RMSE statistics (peak, convergence time, max/mean/variance after
+  convergence) equal those of a direct NumPy window at every sample: on the
+  S1 run to 1e-12 relative; on a long synthetic log with a large start-up
+  transient (which crosses the analyzer's periodic re-summation) within the
+  rounding its running sum carries (see that test);
+- the PSD agreement band equals the one computed from `scipy.signal.welch`
+  (defaults, same segment length) by the same rule, exactly (same bins).
+
+The JSON report does not carry the spectra, only the band; the band depends
+on the ratio of the two Welch spectra, so it tests the window, detrending,
+overlap, segmentation, averaging and frequency axis — each variant of these
+changes the band of at least one case below (checked) — but not a scaling
+common to both spectra (fs·Σw², the one-sided doubling), which cancels.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+from fmpy import read_model_description
+from mcap.reader import make_reader
+
+from mcap_example import KalfmuLog, Signal, run_s1, write_s1_log
+
+REL = 1e-12  # relative tolerance of every metric, unless a test derives a wider one
+
+
+def close(value, expected, rel=REL, abs=0.0):
+    """pytest.approx without its default absolute tolerance of 1e-12, which
+    would accept anything for the small variances compared here."""
+    return value == pytest.approx(expected, rel=rel, abs=abs)
+
+
+# --------------------------------------------------------------------------
+# Helpers: running the analyzer, writing small synthetic logs.
+# --------------------------------------------------------------------------
+
+
+def report(analyzer_bin, log, tmp_path, *args: str) -> dict:
+    """`analyzer report LOG --json OUT ARGS…`; returns the JSON report."""
+    out = tmp_path / f"{log.stem}{'_'.join(a.strip('-') for a in args)}.json"
+    proc = subprocess.run(
+        [str(analyzer_bin), "report", str(log), "--json", str(out), *args], capture_output=True, text=True
+    )
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(out.read_text())
+
+
+def write_pair_log(path, time, truth, estimate):
+    """A minimal log: /truth X and /estimate X sampled at `time`."""
+    with KalfmuLog(path, {"study": "test_analyzer"}) as log:
+        log.add_channel("/truth", [Signal("X", "1", "truth")])
+        log.add_channel("/estimate", [Signal("X", "1", "estimate")])
+        for t, a, b in zip(time, truth, estimate):
+            log.write("/truth", t, [a])
+            log.write("/estimate", t, [b])
+    return path
+
+
+def rmse(e: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(e * e)))
+
+
+def window_samples(window: float, dt: float) -> int:
+    return max(round(window / dt), 1)
+
+
+def direct_running_rmse(e: np.ndarray, w: int) -> np.ndarray:
+    """RMSE over the trailing window of w samples (fewer at the start), each
+    window summed afresh."""
+    first = [rmse(e[: k + 1]) for k in range(min(w - 1, len(e)))]
+    full = np.sqrt(np.mean(np.lib.stride_tricks.sliding_window_view(e * e, w), axis=1)) if len(e) >= w else []
+    return np.concatenate([first, full])
+
+
+def running_statistics(time, truth, estimate, window) -> dict:
+    """The analyzer's running-RMSE statistics (analyzer/src/metrics.rs, as
+    documented there) from the direct window. The convergence time is a
+    simulation time: that of the first converged sample."""
+    dt = time[1] - time[0]
+    e = estimate - truth
+    n = len(e)
+    running = direct_running_rmse(e, window_samples(window, dt))
+    above = np.flatnonzero(running > 2 * rmse(e[n // 2 :]))
+    start = min(above[-1] + 1 if len(above) else 0, n - 1)
+    tail = running[start:]
+    return {
+        "convergence_time": time[start],
+        "rmse_converged": rmse(e[start:]),
+        "running_rmse_peak": running.max(),
+        "running_rmse_max_converged": tail.max(),
+        "running_rmse_mean_converged": tail.mean(),
+        "running_rmse_var_converged": tail.var(),
+    }
+
+
+def agreement_band(f, a, b, db=3.0):
+    """The widest run of bins above DC where 10·log10(a/b) is within ±db
+    (the first of equally wide runs); (f_low, f_high) or None."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ok = (a > 0) & (b > 0) & (np.abs(10 * np.log10(a / b)) <= db)
+    best, start = None, None
+    for k in range(1, len(a) + 1):
+        inside = k < len(a) and ok[k]
+        if inside and start is None:
+            start = k
+        elif not inside and start is not None:
+            if best is None or k - 1 - start > best[1] - best[0]:
+                best = (start, k - 1)
+            start = None
+    return None if best is None else (f[best[0]], f[best[1]])
+
+
+def scipy_band(truth, estimate, fs, segment, **welch_options):
+    n = min(segment, len(truth))
+    f, pt = sps.welch(truth, fs=fs, nperseg=n, **welch_options)
+    _, pe = sps.welch(estimate, fs=fs, nperseg=n, **welch_options)
+    return agreement_band(f, pt, pe)
+
+
+def assert_band(json_band, expected):
+    assert (json_band is None) == (expected is None), (json_band, expected)
+    if expected is not None:
+        np.testing.assert_allclose(json_band, expected, rtol=1e-12, atol=0)
+
+
+# --------------------------------------------------------------------------
+# The S1 log written by the example.
+# --------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def s1_log(scenarios_bin, s1_fmu, tmp_path_factory):
+    """The example's log of the FMU over 5 s of stiffness/random (seed 1, 2 %
+    noise), and what it logged."""
+    tmp = tmp_path_factory.mktemp("s1log")
+    table = tmp / "s1.csv"
+    subprocess.run(
+        [str(scenarios_bin), "s1-export", "--case", "stiffness/random", "--duration", "5"]
+        + ["--seed", "1", "--noise", "0.02", "--out", str(table)],
+        check=True,
+    )
+    run = run_s1(s1_fmu, table)
+    write_s1_log(tmp / "s1.mcap", run, s1_fmu)
+    return tmp / "s1.mcap", run
+
+
+@pytest.fixture(scope="module")
+def paired(s1_log):
+    """The samples the analyzer compares: truth and estimate at t_1 … t_n
+    (the estimate's prior at t = 0 has no truth)."""
+    _, run = s1_log
+    out = run.result[1:]
+    assert np.allclose(out["time"], run.time, rtol=0, atol=1e-12)
+    return run.time, run.load, out["F"], out["F_std"]
+
+
+def test_the_python_log_is_valid_mcap_with_the_fmu_units(s1_log, s1_fmu):
+    """Read back with the `mcap` reader: three JSON/JSON Schema channels, one
+    message per sample (plus the estimate's prior at t = 0), the units of the
+    modelDescription, the `kalfmu` metadata record."""
+    path, run = s1_log
+    units = {v.name: v.unit for v in read_model_description(str(s1_fmu)).modelVariables}
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        counts = {summary.channels[c].topic: k for c, k in summary.statistics.channel_message_counts.items()}
+        assert counts == {"/measurements": 1000, "/truth": 1000, "/estimate": 1001}
+        for channel in summary.channels.values():
+            sch = summary.schemas[channel.schema_id]
+            assert (channel.message_encoding, sch.encoding) == ("json", "jsonschema")
+            schema = json.loads(sch.data)
+            names = [name for name in schema["properties"] if name != "timestamp"]
+            assert schema["required"] == ["timestamp"] + names
+            for name in names:
+                unit = schema["properties"][name]["unit"]
+                assert unit == units[name], (channel.topic, name)
+                assert schema["properties"][name]["description"].endswith(f"[{unit}]")
+        [meta] = [m for m in reader.iter_metadata() if m.name == "kalfmu"]
+    assert meta.metadata == run.metadata
+    assert {"study", "case", "seed", "filter", "parameters", "software"} <= meta.metadata.keys()
+    assert json.loads(meta.metadata["parameters"])["r_z1_ddot_std"] > 0
+
+
+def test_the_analyzer_reads_the_python_log_and_pairs_f(analyzer_bin, s1_log, tmp_path):
+    """`analyzer report LOG --json OUT` succeeds and pairs F with F over all
+    1000 samples, with σ (so a ±2σ coverage), the unit N and the metadata."""
+    path, run = s1_log
+    rep = report(analyzer_bin, path, tmp_path)
+    assert rep["metadata"] == run.metadata
+    [pair] = rep["pairs"]
+    assert (pair["truth"], pair["estimate"], pair["unit"], pair["samples"]) == ("F", "F", "N", 1000)
+    assert pair["two_sigma_coverage"] is not None
+    assert pair["correlation"] > 0.998  # the FMU identifies the load
+
+
+def test_whole_record_metrics_equal_numpy(analyzer_bin, s1_log, paired, tmp_path):
+    """Correlation (numpy.corrcoef), RMSE, RMSE after convergence and the
+    final relative error equal NumPy's to 1e-12 relative; the ±2σ coverage
+    (a count over 1000) exactly."""
+    path, _ = s1_log
+    time, truth, estimate, sigma = paired
+    pair = report(analyzer_bin, path, tmp_path)["pairs"][0]
+    e = estimate - truth
+    assert close(pair["correlation"], np.corrcoef(truth, estimate)[0, 1])
+    assert close(pair["rmse"], rmse(e))
+    assert close(pair["final_relative_error"], abs(e[-1]) / abs(truth[-1]))
+    assert pair["two_sigma_coverage"] == np.mean(np.abs(e) <= 2 * sigma)
+    start = int(np.argmin(np.abs(time - pair["convergence_time"])))
+    assert close(pair["rmse_converged"], rmse(e[start:]))
+
+
+@pytest.mark.parametrize("window", [0.05, 0.3, 1.0])
+def test_running_rmse_statistics_on_the_s1_log(analyzer_bin, s1_log, paired, tmp_path, window):
+    """With windows of 10, 60 and 200 samples, the running-RMSE statistics
+    equal those of the direct NumPy window to 1e-12 relative (the
+    convergence time to 1e-12 s)."""
+    path, _ = s1_log
+    time, truth, estimate, _ = paired
+    pair = report(analyzer_bin, path, tmp_path, "--rmse-window", str(window))["pairs"][0]
+    expected = running_statistics(time, truth, estimate, window)
+    assert close(pair["convergence_time"], expected.pop("convergence_time"), rel=0, abs=1e-12)
+    for key, value in expected.items():
+        assert close(pair[key], value), key
+
+
+def test_running_rmse_statistics_on_a_long_log_with_a_transient(analyzer_bin, tmp_path):
+    """13 000 samples (past the analyzer's periodic re-summation), an error of
+    10 for the first 0.5 s then of 1e-3 (noise), window 3 s, the record
+    starting at t = 1 s. The start-up transient is found (convergence near
+    4.5 s of simulation time) and every statistic equals the direct window's
+    to 1e-12 relative: the analyzer re-sums its window when a large error
+    leaves it, so no cancellation error is left behind."""
+    dt, n, window = 0.001, 13_000, 3.0
+    rng = np.random.default_rng(11)
+    time = 1.0 + np.arange(n) * dt
+    truth = np.sin(2 * np.pi * 0.7 * time)
+    estimate = truth + np.where(time < 1.5, 10.0, 1e-3 * rng.standard_normal(n))
+    log = write_pair_log(tmp_path / "long.mcap", time, truth, estimate)
+    pair = report(analyzer_bin, log, tmp_path, "--rmse-window", str(window))["pairs"][0]
+    expected = running_statistics(time, truth, estimate, window)
+    assert 4.4 < expected["convergence_time"] < 4.6
+    assert close(pair["convergence_time"], expected.pop("convergence_time"), rel=0, abs=1e-9)
+    for key, value in expected.items():
+        assert close(pair[key], value), key
+
+
+# --------------------------------------------------------------------------
+# The Welch PSD, through the agreement band.
+# --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("segment", [128, 256, 1024])
+def test_psd_band_on_the_s1_log_equals_scipy(analyzer_bin, s1_log, paired, tmp_path, segment):
+    """The band of the S1 log with segments of 128, 256 and 1024 samples (the
+    default, longer than the 1000 samples: cut to the record, as scipy does)
+    is the band of scipy.signal.welch's spectra, bin for bin."""
+    path, _ = s1_log
+    _, truth, estimate, _ = paired
+    pair = report(analyzer_bin, path, tmp_path, "--psd-segment", str(segment))["pairs"][0]
+    assert_band(pair["psd_agreement_band"], scipy_band(truth, estimate, 200.0, segment))
+
+
+def psd_cases():
+    """(name, fs, segment, truth, estimate), each sensitive to some part of
+    the estimate: the window (an on-bin sine leaks beyond its neighbours
+    only through a non-periodic-Hann window), detrending (an offset, a
+    ramp), and overlap, segmentation and averaging (independent noise)."""
+    fs, n = 100.0, 2100
+    t = np.arange(n) / fs
+    rng = np.random.default_rng(3)
+    sine = np.sin(2 * np.pi * (40 * fs / 256) * t + 0.3)
+    yield "window", fs, 256, sine, sine + 1e-6 * rng.standard_normal(n)
+    x = rng.standard_normal(n)
+    yield "ramp", fs, 256, x, x + 5.0 + 2.0 * t
+    yield "offset", fs, 256, x, x + 5.0
+    yield "noise", fs, 256, x, x + 0.9 * rng.standard_normal(n)
+    yield "noise, odd segment", fs, 255, x, x + 0.9 * rng.standard_normal(n)
+
+
+PSD_CASES = list(psd_cases())
+
+#: Other Welch estimates; each must change the band of at least one case,
+#: or the cases would not tell it from scipy's defaults.
+VARIANTS = {
+    "symmetric Hann": lambda seg: {"window": sps.windows.hann(seg, sym=True)},
+    "Hamming": lambda seg: {"window": "hamming"},
+    "boxcar": lambda seg: {"window": "boxcar"},
+    "no detrending": lambda seg: {"detrend": False},
+    "linear detrending": lambda seg: {"detrend": "linear"},
+    "no overlap": lambda seg: {"noverlap": 0},
+    "3/4 overlap": lambda seg: {"noverlap": 3 * seg // 4},
+    "median averaging": lambda seg: {"average": "median"},
+}
+
+
+@pytest.mark.parametrize("case", PSD_CASES, ids=[c[0] for c in PSD_CASES])
+def test_psd_band_on_synthetic_logs_equals_scipy(analyzer_bin, tmp_path, case):
+    """On each synthetic case the analyzer's band is the band of scipy's
+    Welch spectra (defaults, same segment), bin for bin."""
+    name, fs, segment, truth, estimate = case
+    log = write_pair_log(tmp_path / "psd.mcap", np.arange(len(truth)) / fs, truth, estimate)
+    pair = report(analyzer_bin, log, tmp_path, "--psd-segment", str(segment))["pairs"][0]
+    assert_band(pair["psd_agreement_band"], scipy_band(truth, estimate, fs, segment))
+
+
+def test_the_psd_cases_tell_each_variant_from_scipys_defaults():
+    """The cases above have power: every Welch variant (window, detrending,
+    overlap, averaging) or the last segment left out gives another band in at
+    least one of them."""
+    default = [scipy_band(a, b, fs, seg) for _, fs, seg, a, b in PSD_CASES]
+
+    def differs(bands):
+        return any(x != y for x, y in zip(bands, default))
+
+    for variant, options in VARIANTS.items():
+        assert differs([scipy_band(a, b, fs, seg, **options(seg)) for _, fs, seg, a, b in PSD_CASES]), variant
+    def without_last_segment(x, seg):
+        step = seg - seg // 2
+        segments = (len(x) - seg // 2) // step  # scipy's count
+        return x[: (segments - 2) * step + seg]
+
+    dropped = [
+        scipy_band(without_last_segment(a, seg), without_last_segment(b, seg), fs, seg)
+        for _, fs, seg, a, b in PSD_CASES
+    ]
+    assert differs(dropped), "last segment left out"

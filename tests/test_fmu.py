@@ -1,0 +1,676 @@
+"""The packaged S1 estimator FMU (`kalfmu_s1_load.fmu`, FMI 2.0 Co-Simulation)
+driven through fmpy, as an importer drives it.
+
+What is specified here:
+
+- the FMU passes both static checkers (fmpy's validation, fmutool -check);
+- `fmpy.simulate_fmu` on the S1 input table (`scenarios s1-export`) gives the
+  estimates of the library run in-process (`scenarios replay`) on exactly the
+  inputs the FMU saw, and identifies the load (correlation >= 0.998);
+- step by step (`fmpy.fmi2.FMU2Slave`): illegal calls are refused and leave the
+  instance as it was, instances are independent, FMU states roll back and
+  restore in a new instance exactly, NaN inputs are skipped and counted,
+  tunable parameters change between steps and fixed ones do not, and a
+  communication step of several samples runs that many filter steps.
+
+Time alignment (the off-by-one that matters): the FMU's step from t to t + h
+runs the samples in (t, t + h] on the inputs set before the step. fmpy applies
+the input table at the start of each step (linearly interpolated), so the row
+meant for the update at t_k = k·dt is given to fmpy at time t_k - dt; on that
+grid the interpolation weight is exactly 0 or 1 and the value exact.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import subprocess
+import sys
+from ctypes import byref
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import extract, free, calloc, read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2Error,
+    fmi2Warning,
+)
+from fmpy.logging import addLoggerProxy
+from fmpy.validation import validate_fmu
+
+from models import run_replay
+
+DT = 0.005  # the FMU's default sample_time, and the study's 200 Hz
+DURATION = 5.0
+STATES = ["z1", "z2", "F", "z1_dot", "z2_dot", "F_dot"]  # the order of the filter state
+FMUTOOL = Path(sys.executable).with_name("fmutool")
+
+
+# --------------------------------------------------------------------------
+# Fixtures: the model description, the S1 input table, the extracted FMU.
+# --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class S1Table:
+    """`scenarios s1-export`: row k is the measurement at time[k] = (k + 1)·dt."""
+
+    time: np.ndarray
+    z: np.ndarray  # (n, 2): z1_ddot, z2_ddot
+    load: np.ndarray  # the true F
+    noise_std: tuple[float, float]
+    meta: dict
+
+
+def read_s1_table(path: Path) -> S1Table:
+    lines = path.read_text().splitlines()
+    meta = dict(line[2:].split(" = ", 1) for line in lines if line.startswith("# ") and " = " in line)
+    body = [line for line in lines if not line.startswith("#")]
+    assert body[0] == "time,z1_ddot,z2_ddot,F_true"
+    data = np.loadtxt(body[1:], delimiter=",", ndmin=2)
+    noise = (float(meta["z1_ddot_noise_std"]), float(meta["z2_ddot_noise_std"]))
+    return S1Table(time=data[:, 0], z=data[:, 1:3], load=data[:, 3], noise_std=noise, meta=meta)
+
+
+@pytest.fixture(scope="module")
+def s1_table(scenarios_bin, tmp_path_factory) -> S1Table:
+    """The stiffness/random case of S1, 5 s at 200 Hz, seed 1, 2 % noise."""
+    out = tmp_path_factory.mktemp("s1") / "s1.csv"
+    subprocess.run(
+        [str(scenarios_bin), "s1-export", "--case", "stiffness/random", "--duration", str(DURATION)]
+        + ["--seed", "1", "--noise", "0.02", "--out", str(out)],
+        check=True,
+    )
+    table = read_s1_table(out)
+    assert table.meta["case"] == "stiffness/random" and float(table.meta["sample_time"]) == DT
+    assert len(table.time) == round(DURATION / DT)
+    np.testing.assert_allclose(table.time, (np.arange(len(table.time)) + 1) * DT, rtol=0, atol=1e-12)
+    return table
+
+
+@pytest.fixture(scope="module")
+def model_description(s1_fmu):
+    return read_model_description(str(s1_fmu))
+
+
+@pytest.fixture(scope="module")
+def defaults(model_description) -> dict[str, float]:
+    """Start values of the parameters, by name."""
+    return {v.name: float(v.start) for v in model_description.modelVariables if v.causality == "parameter"}
+
+
+@pytest.fixture(scope="module")
+def unzipped(s1_fmu, tmp_path_factory) -> Path:
+    return Path(extract(str(s1_fmu), tmp_path_factory.mktemp("unzipped")))
+
+
+# --------------------------------------------------------------------------
+# The reference: the library filter in-process (`scenarios replay`).
+# --------------------------------------------------------------------------
+
+
+def replay_spec(params: dict[str, float], measurements: np.ndarray) -> dict:
+    """A replay spec with the filter the FMU builds from `params`: the same
+    Q as `noise()` in fmu/src/estimators/s1_load.rs (diagonal z, z_dot
+    variances; the (F, F_dot) block q·[dt³/3, dt²/2; dt²/2, dt]), R, prior and
+    dt. NaN in `measurements` is a missing value (null)."""
+    dt = params["sample_time"]
+    qz, qv, q = params["q_z_std"], params["q_z_dot_std"], params["load_noise_intensity"]
+    Q = np.zeros((6, 6))
+    for i in (0, 1):
+        Q[i, i] = qz * qz
+        Q[i + 3, i + 3] = qv * qv
+    Q[2, 2] = q * (dt * dt * dt) / 3.0
+    Q[2, 5] = Q[5, 2] = q * (dt * dt) / 2.0
+    Q[5, 5] = q * dt
+    r1, r2 = params["r_z1_ddot_std"], params["r_z2_ddot_std"]
+    p0 = [params[f"p0_{s}_std"] for s in STATES]
+    return {
+        "model": "oscillator_2dof_stiffness",
+        "substeps": int(params["rk4_substeps"]),
+        "q": Q.tolist(),
+        "r": [r1 * r1, r2 * r2],
+        "x0": [params[f"x0_{s}"] for s in STATES],
+        "p0": [s * s for s in p0],
+        "dt": dt,
+        "measurements": [[None if math.isnan(v) else float(v) for v in row] for row in measurements],
+    }
+
+
+def replay(scenarios_bin, params, measurements) -> dict:
+    out = run_replay(scenarios_bin, replay_spec(params, measurements), "SRCKF")
+    out["std"] = np.sqrt(np.einsum("kii->ki", out["covariances"]))
+    return out
+
+
+#: Makes the FMU's ground damper evaluate k·|v| exactly as the replay model's
+#: `PiecewiseLinear::linear(5)` does: with the default breakpoints the three
+#: equal slopes give the same law but round differently in the last bit
+#: (k·ε₁ + k·(a − ε₁) ≠ k·a), which the filter carries on at the 1e-13 level.
+SAME_LAW = {"eps1": 1e300, "eps2": 1e300}
+
+
+# --------------------------------------------------------------------------
+# Static checks.
+# --------------------------------------------------------------------------
+
+
+def test_fmpy_validation_finds_no_problem(s1_fmu):
+    """fmpy's validation (XSD, names, ModelStructure, start values,
+    causality/variability, units) reports no problem."""
+    assert validate_fmu(str(s1_fmu)) == []
+
+
+def test_fmutool_check_passes(s1_fmu):
+    """`fmutool -input X.fmu -check` (fmu-manipulation-toolbox: XSD and
+    FMI 2.0 semantics) exits with 0."""
+    proc = subprocess.run([str(FMUTOOL), "-input", str(s1_fmu), "-check"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "compliant with FMI-2.0" in proc.stdout + proc.stderr
+
+
+# --------------------------------------------------------------------------
+# simulate_fmu against the in-process library run.
+# --------------------------------------------------------------------------
+
+
+def simulate_s1(fmu: Path, table: S1Table, model_description, extra: dict | None = None):
+    """`fmpy.simulate_fmu` over the table: communication step = sample time,
+    the sensor noise set to the exported std, the table shifted one sample
+    earlier (see the module docstring). Records every output and the inputs."""
+    n = len(table.time)
+    signals = np.zeros(n, dtype=[("time", np.float64), ("z1_ddot", np.float64), ("z2_ddot", np.float64)])
+    signals["time"] = np.arange(n) * DT  # row k at t_{k+1} - dt, on fmpy's own grid
+    signals["z1_ddot"], signals["z2_ddot"] = table.z[:, 0], table.z[:, 1]
+    outputs = [v.name for v in model_description.modelVariables if v.causality == "output"]
+    start = {"r_z1_ddot_std": table.noise_std[0], "r_z2_ddot_std": table.noise_std[1], **(extra or {})}
+    result = simulate_fmu(
+        str(fmu),
+        stop_time=n * DT,
+        output_interval=DT,
+        input=signals,
+        output=outputs + ["z1_ddot", "z2_ddot"],
+        start_values=start,
+    )
+    assert len(result) == n + 1  # t = 0 (the prior), then one row per sample
+    return result, start
+
+
+@pytest.fixture(scope="module")
+def simulated(s1_fmu, s1_table, model_description):
+    """The default FMU (only the sensor noise set) over the table."""
+    return simulate_s1(s1_fmu, s1_table, model_description)
+
+
+def test_each_fmu_sample_updates_with_the_row_of_its_own_time(simulated, s1_table):
+    """The input the FMU holds after the step to t_k (fmpy records it at t_k)
+    is the one its update at t_k used; on the shifted table it is exactly the
+    exported row for t_k, and sample k's estimate is the output at t_k."""
+    result, _ = simulated
+    np.testing.assert_allclose(result["time"][1:], s1_table.time, rtol=0, atol=1e-12)
+    assert np.array_equal(result["z1_ddot"][1:], s1_table.z[:, 0])
+    assert np.array_equal(result["z2_ddot"][1:], s1_table.z[:, 1])
+
+
+def test_simulate_fmu_gives_the_library_estimates(simulated, s1_table, defaults, scenarios_bin):
+    """F, F_std and every state and std of the FMU equal the library's SRCKF
+    (`scenarios replay`, same Q, R, prior, dt) on the exported rows to 1e-12
+    relative (means on the scale each reaches, std per sample)."""
+    result, start = simulated
+    ref = replay(scenarios_bin, {**defaults, **start}, s1_table.z)
+    for i, name in enumerate(STATES):
+        mean, std = result[name][1:], result[f"{name}_std"][1:]
+        scale = np.max(np.abs(ref["means"][:, i]))
+        assert np.max(np.abs(mean - ref["means"][:, i])) <= 1e-12 * scale, name
+        assert np.max(np.abs(std - ref["std"][:, i]) / ref["std"][:, i]) <= 1e-12, name
+    assert np.max(np.abs(result["nis"][1:] - ref["nis"])) <= 1e-12 * np.max(ref["nis"])
+    # At t = 0 the FMU shows its prior.
+    assert result["F"][0] == defaults["x0_F"] and result["F_std"][0] == defaults["p0_F_std"]
+
+
+def test_with_the_same_damper_law_the_fmu_is_bit_identical_to_the_library(
+    s1_fmu, s1_table, model_description, defaults, scenarios_bin
+):
+    """With the damper breakpoints out of reach (so the FMU's law rounds as the
+    replay model's linear damper), every output equals the library's run bit
+    for bit: the FMU layer adds nothing (same Q, R, prior, grid and inputs)."""
+    result, start = simulate_s1(s1_fmu, s1_table, model_description, SAME_LAW)
+    ref = replay(scenarios_bin, {**defaults, **start}, s1_table.z)
+    for i, name in enumerate(STATES):
+        assert np.array_equal(result[name][1:], ref["means"][:, i]), name
+        assert np.array_equal(result[f"{name}_std"][1:], ref["std"][:, i]), name
+    assert np.array_equal(result["nis"][1:], ref["nis"])
+
+
+def test_the_fmu_identifies_the_s1_load(simulated, s1_table):
+    """After the first second, the FMU's F correlates with the true load at
+    >= 0.998 (the project's goal for the stiffness-nonlinear chain), with
+    every sample used and the filter healthy."""
+    result, _ = simulated
+    after = s1_table.time >= 1.0
+    correlation = np.corrcoef(result["F"][1:][after], s1_table.load[after])[0, 1]
+    assert correlation >= 0.998, correlation
+    assert np.all(result["skipped_measurements"] == 0)
+    assert np.all(result["filter_healthy"])
+
+
+# --------------------------------------------------------------------------
+# Step by step with FMU2Slave.
+# --------------------------------------------------------------------------
+
+
+#: Live slaves by their componentEnvironment. fmpy's logger proxy (which
+#: formats the variadic message in C) keeps ONE global Python logger, the last
+#: one registered; so every slave registers the same dispatcher, which routes
+#: each message by the environment pointer the FMU hands back.
+_SLAVES: dict[int, "Slave"] = {}
+_KEYS = itertools.count(1)
+
+
+def _dispatch(env, name, status, category, message):
+    slave = _SLAVES.get(env or 0)
+    if slave is not None:
+        slave.messages.append((status, category.decode(), message.decode()))
+        slave.names.add(name.decode())
+
+
+_LOGGER = fmi2CallbackLoggerTYPE(_dispatch)
+
+
+class Slave:
+    """One FMU2Slave instance of the extracted FMU, with a logger that keeps
+    every message as (status, category, text)."""
+
+    def __init__(self, unzipped: Path, model_description, name: str, logging_on: bool = True):
+        md = model_description
+        self.name = name
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.real_outputs = [
+            v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"
+        ]
+        self.messages: list[tuple[int, str, str]] = []
+        self.names: set[str] = set()  # instance names the messages came with
+        self.fmu = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=str(unzipped),
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
+        self.key = next(_KEYS)
+        _SLAVES[self.key] = self
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = _LOGGER
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        callbacks.componentEnvironment = self.key
+        addLoggerProxy(byref(callbacks))  # (re)installs _LOGGER behind the C formatter
+        self._callbacks = callbacks  # must outlive the instance
+        self.fmu.instantiate(callbacks=callbacks, loggingOn=logging_on)
+        self.time = 0.0
+        self.freed = False
+
+    def errors(self) -> list[str]:
+        return [m for s, _, m in self.messages if s == fmi2Error]
+
+    def warnings(self) -> list[str]:
+        return [m for s, _, m in self.messages if s == fmi2Warning]
+
+    def initialize(self, **params: float) -> None:
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.set(**params)
+        self.fmu.exitInitializationMode()
+
+    def set(self, **values: float) -> None:
+        if values:
+            self.fmu.setReal([self.vr[k] for k in values], list(values.values()))
+
+    def get(self, *names: str) -> list[float]:
+        return self.fmu.getReal([self.vr[k] for k in names])
+
+    def inputs(self, z) -> None:
+        self.fmu.setReal([self.vr["z1_ddot"], self.vr["z2_ddot"]], [float(z[0]), float(z[1])])
+
+    def step(self, h: float = DT) -> None:
+        self.fmu.doStep(currentCommunicationPoint=self.time, communicationStepSize=h)
+        self.time += h
+
+    def outputs(self) -> tuple[float, ...]:
+        """Every Real output, then skipped_measurements and filter_healthy."""
+        reals = self.fmu.getReal(self.real_outputs)
+        skipped = self.fmu.getInteger([self.vr["skipped_measurements"]])
+        healthy = self.fmu.getBoolean([self.vr["filter_healthy"]])
+        return tuple(reals) + (skipped[0], healthy[0])
+
+    def run(self, zs) -> list[tuple[float, ...]]:
+        """One sample per row of `zs`: set the inputs, step, read the outputs."""
+        out = []
+        for z in zs:
+            self.inputs(z)
+            self.step()
+            out.append(self.outputs())
+        return out
+
+    def free(self) -> None:
+        if not self.freed:
+            self.freed = True
+            self.fmu.freeInstance()
+            del _SLAVES[self.key]
+
+
+@pytest.fixture
+def new_slave(unzipped, model_description):
+    """Makes instances (each its own FMU2Slave); frees them after the test."""
+    made: list[Slave] = []
+
+    def make(name: str = "s1", logging_on: bool = True) -> Slave:
+        made.append(Slave(unzipped, model_description, name, logging_on))
+        return made[-1]
+
+    yield make
+    for slave in made:
+        slave.free()
+
+
+def sensor(table: S1Table) -> dict[str, float]:
+    return {"r_z1_ddot_std": table.noise_std[0], "r_z2_ddot_std": table.noise_std[1]}
+
+
+BAD_STEP = 25  # the bad call comes after this many good steps
+STEPS = 60
+
+#: (phase, the bad call, what the error message says). Phases: "instantiated"
+#: (after fmi2Instantiate and SetupExperiment), "initialization" (between
+#: Enter- and ExitInitializationMode, after the parameters), "stepping"
+#: (after BAD_STEP steps, between setting the inputs and the next DoStep).
+BAD_CALLS = {
+    "doStep before initialization": (
+        "instantiated",
+        lambda s: s.fmu.doStep(0.0, DT),
+        "fmi2DoStep: illegal call sequence",
+    ),
+    "doStep in initialization mode": (
+        "initialization",
+        lambda s: s.fmu.doStep(0.0, DT),
+        "fmi2DoStep: illegal call sequence",
+    ),
+    "exitInitializationMode before entering it": (
+        "instantiated",
+        lambda s: s.fmu.exitInitializationMode(),
+        "fmi2ExitInitializationMode: illegal call sequence",
+    ),
+    "getReal before initialization mode": (
+        "instantiated",
+        lambda s: s.get("F"),
+        "fmi2GetReal: illegal call sequence",
+    ),
+    "exitInitializationMode twice": (
+        "stepping",
+        lambda s: s.fmu.exitInitializationMode(),
+        "fmi2ExitInitializationMode: illegal call sequence",
+    ),
+    "enterInitializationMode after initialization": (
+        "stepping",
+        lambda s: s.fmu.enterInitializationMode(),
+        "fmi2EnterInitializationMode: illegal call sequence",
+    ),
+    "setupExperiment after initialization": (
+        "stepping",
+        lambda s: s.fmu.setupExperiment(startTime=0.0),
+        "fmi2SetupExperiment: illegal call sequence",
+    ),
+    "setReal on a fixed parameter after initialization": (
+        "stepping",
+        lambda s: s.set(m1=5.0),
+        "is a fixed parameter",
+    ),
+    "setReal on an output": ("stepping", lambda s: s.set(F=1.0), "is an output and cannot be set"),
+    "setReal on an output in initialization mode": (
+        "initialization",
+        lambda s: s.set(F=1.0),
+        "is an output and cannot be set",
+    ),
+    "setReal on an input and an output at once (all or nothing)": (
+        "stepping",
+        lambda s: s.set(z1_ddot=1e3, F=1.0),
+        "is an output and cannot be set",
+    ),
+    "setReal of a tunable parameter out of its bounds": (
+        "stepping",
+        lambda s: s.set(r_z2_ddot_std=-1.0),
+        "is outside [0",
+    ),
+    "getReal with an unknown value reference": (
+        "stepping",
+        lambda s: s.fmu.getReal([s.vr["F"], 100_000]),
+        "unknown value reference 100000",
+    ),
+    "doStep at a wrong communication point": (
+        "stepping",
+        lambda s: s.fmu.doStep(s.time + DT, DT),
+        "does not match the FMU time",
+    ),
+    "doStep with a zero step": ("stepping", lambda s: s.fmu.doStep(s.time, 0.0), "must be positive"),
+    "doStep with a negative step": ("stepping", lambda s: s.fmu.doStep(s.time, -DT), "must be positive"),
+    "doStep with a NaN step": ("stepping", lambda s: s.fmu.doStep(s.time, math.nan), "must be positive"),
+}
+
+
+def drive(slave: Slave, table: S1Table, bad=None) -> list[tuple[float, ...]]:
+    """The standard run (sensor noise set in initialization mode, STEPS rows of
+    the table), with the bad call `bad(phase)` hooked into every phase."""
+    bad = bad or (lambda phase: None)
+    slave.fmu.setupExperiment(startTime=0.0)
+    bad("instantiated")
+    slave.fmu.enterInitializationMode()
+    slave.set(**sensor(table))
+    bad("initialization")
+    slave.fmu.exitInitializationMode()
+    out = []
+    for k in range(STEPS):
+        slave.inputs(table.z[k])
+        if k == BAD_STEP:
+            bad("stepping")
+        slave.step()
+        out.append(slave.outputs())
+    return out
+
+
+@pytest.fixture
+def clean_run(new_slave, s1_table):
+    return drive(new_slave("clean"), s1_table)
+
+
+@pytest.mark.parametrize("case", list(BAD_CALLS))
+def test_an_illegal_call_is_refused_and_changes_nothing(case, new_slave, s1_table, clean_run):
+    """Each illegal call returns fmi2Error (fmpy raises), logs why — the order
+    errors as "illegal call sequence" — and leaves the instance as it was: it
+    then steps on and gives exactly the outputs of an instance that never saw
+    the call."""
+    phase, call, message = BAD_CALLS[case]
+    slave = new_slave("bad")
+    seen = []
+
+    def bad(now):
+        if now == phase:
+            with pytest.raises(FMICallException) as raised:
+                call(slave)
+            assert raised.value.status == fmi2Error
+            seen.append(now)
+
+    assert drive(slave, s1_table, bad) == clean_run
+    assert seen == [phase]
+    errors = slave.errors()
+    assert len(errors) == 1 and message in errors[0], errors
+    assert ("illegal call sequence" in errors[0]) == ("illegal call sequence" in message)
+    assert slave.get("m1", "r_z2_ddot_std") == [4.0, s1_table.noise_std[1]]
+
+
+def test_interleaved_instances_are_independent(new_slave, s1_table):
+    """Two instances with different inputs and noise, stepped alternately, give
+    exactly what each gives when run alone."""
+    za, zb = s1_table.z[:150], -0.5 * s1_table.z[300:450]
+    a_alone = new_slave("a-alone")
+    a_alone.initialize(**sensor(s1_table))
+    expected_a = a_alone.run(za)
+    b_alone = new_slave("b-alone")
+    b_alone.initialize(r_z1_ddot_std=0.02, r_z2_ddot_std=0.05)
+    expected_b = b_alone.run(zb)
+    a_alone.free()
+    b_alone.free()
+
+    a, b = new_slave("a"), new_slave("b")
+    a.initialize(**sensor(s1_table))
+    b.initialize(r_z1_ddot_std=0.02, r_z2_ddot_std=0.05)
+    got_a, got_b = [], []
+    for za_k, zb_k in zip(za, zb):
+        got_a += a.run([za_k])
+        got_b += b.run([zb_k])
+    assert got_a == expected_a
+    assert got_b == expected_b
+    assert got_a != got_b
+    assert a.names == {"a"} and b.names == {"b"}  # each logs as itself
+
+
+def test_get_and_set_fmu_state_roll_back_exactly(new_slave, s1_table):
+    """Run 200 steps, save the state, run 200 more, restore, run the same 200
+    again: the outputs are identical (==), and so is the time."""
+    slave = new_slave()
+    slave.initialize(**sensor(s1_table))
+    slave.run(s1_table.z[:200])
+    state = slave.fmu.getFMUstate()
+    saved_time = slave.time
+    first = slave.run(s1_table.z[200:400])
+    slave.fmu.setFMUstate(state)
+    slave.time = saved_time
+    again = slave.run(s1_table.z[200:400])
+    assert again == first
+    slave.fmu.freeFMUstate(state)
+    assert not slave.errors()
+
+
+def test_a_serialized_state_continues_identically_in_a_new_instance(new_slave, s1_table):
+    """A state serialized after 200 steps, de-serialized into a freshly
+    instantiated instance (still in Instantiated) and set there, continues
+    exactly as the original does — parameters included."""
+    original = new_slave("original")
+    original.initialize(**sensor(s1_table))
+    original.run(s1_table.z[:200])
+    state = original.fmu.getFMUstate()
+    data = original.fmu.serializeFMUstate(state)
+    original.fmu.freeFMUstate(state)
+    assert data.startswith(b"KALFMUS\0")
+    expected = original.run(s1_table.z[200:400])
+
+    fresh = new_slave("fresh")  # only instantiated: default noise, time 0
+    restored = fresh.fmu.deSerializeFMUstate(data)
+    fresh.fmu.setFMUstate(restored)
+    fresh.fmu.freeFMUstate(restored)
+    fresh.time = 200 * DT
+    assert fresh.get("r_z1_ddot_std", "r_z2_ddot_std") == list(s1_table.noise_std)
+    assert fresh.run(s1_table.z[200:400]) == expected
+    assert not fresh.errors()
+
+
+def test_nan_inputs_are_skipped_counted_and_never_reach_the_outputs(new_slave, s1_table, defaults, scenarios_bin):
+    """NaN inputs leave their rows out of the update: they are counted in
+    skipped_measurements, reported once per input, every output stays finite,
+    filter_healthy stays true, and the estimates are the library's with those
+    values missing."""
+    z = s1_table.z[:120].copy()
+    z[10:20, 0] = np.nan  # z1_ddot missing
+    z[40:45, 1] = np.nan  # z2_ddot missing
+    z[60:70, :] = np.nan  # both: prediction only
+    slave = new_slave()
+    slave.initialize(**sensor(s1_table), **SAME_LAW)
+    out = np.array(slave.run(z))
+    assert np.all(np.isfinite(out))
+    skipped, healthy = out[:, -2], out[:, -1]
+    assert list(skipped) == list(np.cumsum(np.isnan(z).sum(axis=1)))
+    assert skipped[-1] == 10 + 5 + 20
+    assert np.all(healthy == 1)
+    assert slave.fmu.getBoolean([slave.vr["filter_healthy"]]) == [1]
+    # A prediction-only stretch loses information on the load.
+    f_std = out[:, slave.real_outputs.index(slave.vr["F_std"])]
+    assert np.all(np.diff(f_std[60:70]) > 0)
+    missing = [m for m in slave.warnings() if "treated as missing" in m]
+    assert len(missing) == 2 and "z1_ddot" in missing[0] and "z2_ddot" in missing[1], missing
+
+    ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, z)
+    for i, name in enumerate(STATES):
+        assert np.array_equal(out[:, slave.real_outputs.index(slave.vr[name])], ref["means"][:, i]), name
+
+
+def test_a_tunable_parameter_changes_between_steps_a_fixed_one_does_not(new_slave, s1_table):
+    """r_z2_ddot_std (tunable) can be set between steps and acts from the next
+    step on (a noisier sensor: a wider load estimate than without the change);
+    m1 (fixed) is refused there and keeps its value."""
+    baseline, tuned = new_slave("baseline"), new_slave("tuned")
+    for slave in (baseline, tuned):
+        slave.initialize(**sensor(s1_table))
+    assert baseline.run(s1_table.z[:100]) == tuned.run(s1_table.z[:100])
+
+    tuned.set(r_z2_ddot_std=10 * s1_table.noise_std[1])
+    assert tuned.get("r_z2_ddot_std") == [10 * s1_table.noise_std[1]]
+    with pytest.raises(FMICallException):
+        tuned.set(m1=5.0)
+    assert tuned.get("m1") == [4.0]
+    assert any("fixed parameter" in m for m in tuned.errors())
+
+    f_std = baseline.real_outputs.index(baseline.vr["F_std"])
+    after_base = baseline.run(s1_table.z[100:150])
+    after_tuned = tuned.run(s1_table.z[100:150])
+    assert all(t[f_std] > b[f_std] for b, t in zip(after_base, after_tuned))
+
+
+def test_a_step_of_several_samples_runs_that_many_filter_steps(new_slave, s1_table):
+    """A communication step of 4·sample_time runs 4 filter steps on the held
+    input: after each, the outputs equal those of 4 steps of sample_time on
+    the same input (==). No warning is logged."""
+    coarse, fine = new_slave("coarse"), new_slave("fine")
+    for slave in (coarse, fine):
+        slave.initialize(**sensor(s1_table))
+    for k in range(0, 80, 4):
+        z = s1_table.z[k]
+        coarse.inputs(z)
+        coarse.step(4 * DT)
+        fine.inputs(z)
+        for _ in range(4):
+            fine.step(DT)
+        assert coarse.outputs() == fine.outputs(), k
+    assert not coarse.warnings() and not coarse.errors()
+
+
+def test_a_step_between_samples_warns_once_and_shows_the_last_sample(new_slave, s1_table):
+    """A step that ends between two samples returns OK, logs the documented
+    warning (once) and shows the outputs of the last sample reached; stepping
+    back onto the grid continues the same filter."""
+    odd, even = new_slave("odd"), new_slave("even")
+    for slave in (odd, even):
+        slave.initialize(**sensor(s1_table))
+        slave.inputs(s1_table.z[0])
+    expected = []
+    for _ in range(3):
+        even.step(DT)
+        expected.append(even.outputs())
+
+    odd.step(1.5 * DT)  # samples at 0.005 only
+    assert odd.outputs() == expected[0]
+    odd.step(0.5 * DT)  # back on the grid: the sample at 0.010
+    assert odd.outputs() == expected[1]
+    odd.step(0.25 * DT)  # off the grid again: no sample, no second warning
+    assert odd.outputs() == expected[1]
+    odd.step(0.75 * DT)
+    assert odd.outputs() == expected[2]
+    warnings = odd.warnings()
+    assert len(warnings) == 1, warnings
+    assert "between filter samples" in warnings[0] and "reported once" in warnings[0]
+    assert not even.warnings()
