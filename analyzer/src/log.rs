@@ -103,7 +103,10 @@ impl LogWriter {
     pub fn add_channel(&mut self, topic: &str, signals: &[SignalSpec]) -> Result<ChannelId, LogError> {
         let mcap = |source| LogError::Mcap { file: self.file.clone(), source };
         let schema = serde_json::to_vec(&schema(topic, signals)).expect("a JSON value serialises");
-        let schema_id = self.writer.add_schema(&format!("kalfmu{}", topic.replace('/', ".")), "jsonschema", &schema).map_err(mcap)?;
+        let schema_id = self
+            .writer
+            .add_schema(&format!("kalfmu{}", topic.replace('/', ".")), "jsonschema", &schema)
+            .map_err(mcap)?;
         let id = self.writer.add_channel(schema_id, topic, "json", &BTreeMap::new()).map_err(mcap)?;
         self.channels.push((id, topic.into(), signals.iter().map(|s| s.name.clone()).collect()));
         Ok(ChannelId(self.channels.len() - 1))
@@ -127,9 +130,16 @@ impl LogWriter {
             body.insert(name.clone(), if v.is_finite() { Value::from(v) } else { Value::Null });
         }
         let data = serde_json::to_vec(&Value::Object(body)).expect("a JSON value serialises");
-        let header = mcap::records::MessageHeader { channel_id: *id, sequence: self.sequence, log_time: nanos, publish_time: nanos };
+        let header = mcap::records::MessageHeader {
+            channel_id: *id,
+            sequence: self.sequence,
+            log_time: nanos,
+            publish_time: nanos,
+        };
         self.sequence = self.sequence.wrapping_add(1);
-        self.writer.write_to_known_channel(&header, &data).map_err(|source| LogError::Mcap { file: self.file.clone(), source })
+        self.writer
+            .write_to_known_channel(&header, &data)
+            .map_err(|source| LogError::Mcap { file: self.file.clone(), source })
     }
 
     /// Writes the summary and closes the file.

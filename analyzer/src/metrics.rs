@@ -136,7 +136,8 @@ mod tests {
     fn running_rmse_stays_exact_after_a_large_error_leaves_the_window() {
         let n = 13_000;
         let a = vec![0.0; n];
-        let b: Vec<f64> = (0..n).map(|k| if k < 500 { 10.0 } else { 1e-3 * ((k * 7919 % 97) as f64 / 48.0 - 1.0) }).collect();
+        let b: Vec<f64> =
+            (0..n).map(|k| if k < 500 { 10.0 } else { 1e-3 * ((k * 7919 % 97) as f64 / 48.0 - 1.0) }).collect();
         let r = running_rmse(&a, &b, 3000);
         for k in [3499, 3500, 3501, 5000, 8191, 12_999] {
             let direct = rmse(&a[k + 1 - 3000..=k], &b[k + 1 - 3000..=k]);

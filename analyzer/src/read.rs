@@ -96,7 +96,8 @@ pub fn read_log(path: &Path) -> Result<Run, LogError> {
                 });
             }
         }
-        let problem = |what: String| LogError::Message { file: file.clone(), channel: channel.topic.clone(), time, what };
+        let problem =
+            |what: String| LogError::Message { file: file.clone(), channel: channel.topic.clone(), time, what };
         let body: Value = serde_json::from_slice(&message.data).map_err(|e| problem(format!("not JSON: {e}")))?;
         let Value::Object(fields) = body else {
             return Err(problem("the message is not a JSON object".into()));
@@ -145,7 +146,10 @@ fn open_channel(file: &Path, channel: &mcap::Channel<'_>) -> Result<Channel, Log
     let mut signals = Vec::new();
     for (name, property) in properties.iter().filter(|(name, _)| *name != "timestamp") {
         let text = |key: &str| property.get(key).and_then(Value::as_str).unwrap_or("").to_string();
-        signals.push(Signal { spec: SignalSpec { name: name.clone(), unit: text("unit"), description: text("description") }, values: Vec::new() });
+        signals.push(Signal {
+            spec: SignalSpec { name: name.clone(), unit: text("unit"), description: text("description") },
+            values: Vec::new(),
+        });
     }
     Ok(Channel { topic: topic.clone(), time: Vec::new(), signals })
 }

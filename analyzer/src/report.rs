@@ -127,7 +127,11 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     let time: Vec<f64> = common.iter().map(|&(i, _)| truth.time[i]).collect();
     let dt = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
     if let Some(w) = time.windows(2).find(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt) {
-        return Err(fail(format!("samples are not evenly spaced (step {} s at t = {} s, mean {dt} s)", w[1] - w[0], w[0])));
+        return Err(fail(format!(
+            "samples are not evenly spaced (step {} s at t = {} s, mean {dt} s)",
+            w[1] - w[0],
+            w[0]
+        )));
     }
     let mut reports = Vec::new();
     for (t_name, e_name) in pairs {
@@ -155,7 +159,12 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
         let comparison = compare(&truth_values, &estimate_values, time[0], dt, options.rmse_window);
         let w = ((options.rmse_window / dt).round() as usize).max(1);
         let two_sigma_coverage = sigma.as_ref().map(|s| {
-            let inside = truth_values.iter().zip(&estimate_values).zip(s).filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s).count();
+            let inside = truth_values
+                .iter()
+                .zip(&estimate_values)
+                .zip(s)
+                .filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s)
+                .count();
             inside as f64 / truth_values.len() as f64
         });
         let fs = 1.0 / dt;
@@ -199,7 +208,17 @@ impl Report {
         let _ = writeln!(
             out,
             "{:<12} {:>6} {:>9} {:>10} {:>10} {:>8} {:>10} {:>10} {:>8} {:>10} {:>16}",
-            "signal", "unit", "corr", "RMSE", "RMSE conv", "t_conv", "run. peak", "run. max", "2σ cov", "final rel", "PSD ±3 dB (Hz)"
+            "signal",
+            "unit",
+            "corr",
+            "RMSE",
+            "RMSE conv",
+            "t_conv",
+            "run. peak",
+            "run. max",
+            "2σ cov",
+            "final rel",
+            "PSD ±3 dB (Hz)"
         );
         for p in &self.pairs {
             let c = &p.comparison;

@@ -23,7 +23,10 @@ fn write_run(path: &Path, mutate: impl Fn(usize, &mut f64, &mut f64)) {
     let m = w.add_channel(MEASUREMENTS, &[SignalSpec::new("a", "m/s2", "acceleration")]).unwrap();
     let t = w.add_channel(TRUTH, &[SignalSpec::new("F", "N", "true load")]).unwrap();
     let e = w
-        .add_channel(ESTIMATE, &[SignalSpec::new("F", "N", "estimated load"), SignalSpec::new("F_std", "N", "its deviation")])
+        .add_channel(
+            ESTIMATE,
+            &[SignalSpec::new("F", "N", "estimated load"), SignalSpec::new("F_std", "N", "its deviation")],
+        )
         .unwrap();
     for k in 0..2000 {
         let mut time = k as f64 * 0.01;

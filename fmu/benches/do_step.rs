@@ -40,8 +40,13 @@ use nalgebra::{DMatrix, DVector};
 
 const SAMPLES: usize = 4000;
 
+/// The S1 estimator's description, built once for the whole benchmark.
+static S1: std::sync::LazyLock<Descriptor> = std::sync::LazyLock::new(|| {
+    fmu::estimators::all().into_iter().find(|d| d.model_identifier == "kalfmu_s1_load").expect("the S1 FMU")
+});
+
 fn descriptor() -> &'static Descriptor {
-    fmu::estimators::all().iter().find(|d| d.model_identifier == "kalfmu_s1_load").expect("the S1 FMU")
+    &S1
 }
 
 fn vr(name: &str) -> u32 {

@@ -28,7 +28,7 @@ pub const LOG_CATEGORIES: [(&str, &str); 4] = [
 
 /// One instance of an estimator FMU.
 pub struct Instance {
-    pub(crate) descriptor: &'static Descriptor,
+    pub(crate) descriptor: Descriptor,
     name: CString,
     env: Fmi2ComponentEnvironment,
     logger: Fmi2CallbackLogger,
@@ -55,7 +55,7 @@ unsafe impl Send for Instance {}
 
 impl Instance {
     pub fn new(
-        descriptor: &'static Descriptor,
+        descriptor: Descriptor,
         name: CString,
         env: Fmi2ComponentEnvironment,
         logger: Fmi2CallbackLogger,
@@ -104,9 +104,10 @@ impl Instance {
     // ----- logging: the one path every message takes -----
 
     /// Sends a message to the importer's logger, if its category is enabled
-    /// (errors and fatal errors are always sent).
+    /// (failures — discard, error, fatal — are always sent: they say what
+    /// failed and when).
     pub fn log(&self, status: Fmi2Status, category: &str, message: &str) {
-        let enabled = status >= Fmi2Status::Error
+        let enabled = status >= Fmi2Status::Discard
             || (self.debug_logging
                 && LOG_CATEGORIES.iter().zip(self.categories).any(|((name, _), on)| on && *name == category));
         let Some(logger) = self.logger else { return };
@@ -250,7 +251,7 @@ impl Instance {
     }
 
     fn build_filter(&self) -> Result<Box<dyn StateEstimator>, String> {
-        build_filter(self.descriptor, &self.values, self.start_time)
+        build_filter(&self.descriptor, &self.values, self.start_time)
     }
 
     /// In initialisation mode the outputs show the prior of the current

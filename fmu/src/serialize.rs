@@ -135,7 +135,7 @@ pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
     let mut filter = match &saved.filter {
         None => None,
         Some(snapshot) => {
-            let mut f = crate::instance::build_filter(instance.descriptor, &saved.values, saved.start_time)?;
+            let mut f = crate::instance::build_filter(&instance.descriptor, &saved.values, saved.start_time)?;
             f.restore(snapshot).map_err(|e| format!("cannot restore the filter: {e}"))?;
             Some(f)
         }

@@ -54,13 +54,13 @@ fn package() -> PathBuf {
     let library = deps.join("libkalfmu_fmu.so");
     let binary = fs::read(&library)
         .unwrap_or_else(|e| panic!("{}: {e} (cargo builds the cdylib next to the test executable)", library.display()));
-    let d = estimators::all().iter().find(|d| d.model_identifier == MODEL).expect("the S1 estimator");
+    let d = estimators::all().into_iter().find(|d| d.model_identifier == MODEL).expect("the S1 estimator");
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fmi_importer");
     fs::create_dir_all(&dir).expect("a directory for the packaged FMU");
     let path = dir.join(format!("{MODEL}.fmu"));
     let mut zip = zip::ZipWriter::new(File::create(&path).expect("the .fmu file"));
     let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-    let (xml, html) = (model_description(d), documentation(d));
+    let (xml, html) = (model_description(&d), documentation(&d));
     let entries: [(String, &[u8]); 3] = [
         ("modelDescription.xml".into(), xml.as_bytes()),
         (format!("binaries/linux64/{MODEL}.so"), &binary),

@@ -18,7 +18,7 @@ fn committed(identifier: &str) -> String {
 
 #[test]
 fn committed_model_descriptions_are_what_the_table_generates() {
-    for d in estimators::all() {
+    for d in &estimators::all() {
         assert!(
             committed(d.model_identifier) == model_description(d),
             "modelDescription/{}/modelDescription.xml is stale: regenerate it with \
@@ -30,7 +30,7 @@ fn committed_model_descriptions_are_what_the_table_generates() {
 
 #[test]
 fn fmi_schema_reads_back_the_guid_the_value_references_and_the_causalities() {
-    for d in estimators::all() {
+    for d in &estimators::all() {
         estimators::check(d).unwrap();
         let md: Fmi2ModelDescription = fmi_schema::deserialize(&committed(d.model_identifier)).unwrap();
         assert_eq!(md.fmi_version, "2.0");
@@ -81,9 +81,9 @@ fn fmi_schema_reads_back_the_guid_the_value_references_and_the_causalities() {
 
 #[test]
 fn every_estimator_is_found_by_its_guid_and_only_by_it() {
-    for d in estimators::all() {
+    for d in &estimators::all() {
         assert_eq!(d.guid().len(), 38, "{{8-4-4-4-12}}");
-        assert!(std::ptr::eq(estimators::by_guid(d.guid()).unwrap(), d));
+        assert_eq!(estimators::by_guid(d.guid()).unwrap().model_identifier, d.model_identifier);
     }
     assert!(estimators::by_guid("{00000000-0000-0000-0000-000000000000}").is_none());
 }

@@ -91,13 +91,17 @@ fn callbacks() -> Fmi2CallbackFunctions {
 
 // ----- the interface under test -----
 
+/// The S1 estimator's description, built once for the whole test binary.
+static S1: std::sync::LazyLock<fmu::estimators::Descriptor> = std::sync::LazyLock::new(|| {
+    fmu::estimators::all().into_iter().find(|d| d.model_identifier == "kalfmu_s1_load").expect("the S1 FMU")
+});
+
 fn variables() -> &'static [Variable] {
-    &fmu::estimators::all().iter().find(|d| d.model_identifier == "kalfmu_s1_load").expect("the S1 FMU").variables
+    &S1.variables
 }
 
 fn guid() -> CString {
-    let d = fmu::estimators::all().iter().find(|d| d.model_identifier == "kalfmu_s1_load").expect("the S1 FMU");
-    CString::new(d.guid()).expect("a GUID without NUL")
+    CString::new(S1.guid()).expect("a GUID without NUL")
 }
 
 fn vr(name: &str) -> u32 {

@@ -57,8 +57,12 @@ impl ImportedFmu {
         let mut cs = self.import.instantiate_cs(name, false, true).map_err(|e| anyhow!("fmi2Instantiate: {e}"))?;
         FmiInstance::enter_initialization_mode(&mut cs, None, start_time, Some(stop_time))
             .map_err(|e| anyhow!("fmi2SetupExperiment/EnterInitializationMode: {e}"))?;
-        let (vrs, values): (Vec<u32>, Vec<f64>) =
-            reals.iter().map(|(n, v)| self.vr(n).map(|vr| (vr, *v))).collect::<anyhow::Result<Vec<_>>>()?.into_iter().unzip();
+        let (vrs, values): (Vec<u32>, Vec<f64>) = reals
+            .iter()
+            .map(|(n, v)| self.vr(n).map(|vr| (vr, *v)))
+            .collect::<anyhow::Result<Vec<_>>>()?
+            .into_iter()
+            .unzip();
         Common::set_real(&mut cs, &vrs, &values).map_err(|e| anyhow!("fmi2SetReal of the parameters: {e}"))?;
         let (vrs, values): (Vec<u32>, Vec<i32>) = integers
             .iter()
@@ -80,11 +84,20 @@ pub struct Instance {
 
 impl Instance {
     /// Sets the inputs, steps by `h`, and reads `outputs` into `values`.
-    pub fn step(&mut self, inputs: &[u32], values_in: &[f64], h: f64, outputs: &[u32], values: &mut [f64]) -> anyhow::Result<()> {
-        Common::set_real(&mut self.cs, inputs, values_in).map_err(|e| anyhow!("fmi2SetReal at t = {}: {e}", self.time))?;
+    pub fn step(
+        &mut self,
+        inputs: &[u32],
+        values_in: &[f64],
+        h: f64,
+        outputs: &[u32],
+        values: &mut [f64],
+    ) -> anyhow::Result<()> {
+        Common::set_real(&mut self.cs, inputs, values_in)
+            .map_err(|e| anyhow!("fmi2SetReal at t = {}: {e}", self.time))?;
         self.cs.do_step(self.time, h, true).map_err(|e| anyhow!("fmi2DoStep at t = {}: {e}", self.time))?;
         self.time += h;
-        Common::get_real(&mut self.cs, outputs, values).map_err(|e| anyhow!("fmi2GetReal at t = {}: {e}", self.time))?;
+        Common::get_real(&mut self.cs, outputs, values)
+            .map_err(|e| anyhow!("fmi2GetReal at t = {}: {e}", self.time))?;
         if values.iter().any(|v| !v.is_finite()) {
             bail!("the FMU returned a non-finite output at t = {}", self.time);
         }
@@ -105,7 +118,9 @@ fn units_of(path: &Path) -> anyhow::Result<HashMap<String, String>> {
     let mut archive = zip::ZipArchive::new(file).with_context(|| format!("{} is not a zip archive", path.display()))?;
     let mut xml = String::new();
     std::io::Read::read_to_string(
-        &mut archive.by_name("modelDescription.xml").with_context(|| format!("{} has no modelDescription.xml", path.display()))?,
+        &mut archive
+            .by_name("modelDescription.xml")
+            .with_context(|| format!("{} has no modelDescription.xml", path.display()))?,
         &mut xml,
     )?;
     let attribute = |text: &str, key: &str| -> Option<String> {

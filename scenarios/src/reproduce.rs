@@ -102,7 +102,11 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         100.0 * settings.noise_fraction,
         settings.seed
     );
-    println!("estimates from {} driven through the fmi importer; logs, reports and recordings in {}", fmu_path.display(), dir.display());
+    println!(
+        "estimates from {} driven through the fmi importer; logs, reports and recordings in {}",
+        fmu_path.display(),
+        dir.display()
+    );
     println!(
         "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
         settings.rmse_window
@@ -115,7 +119,17 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
     let _ = writeln!(
         table,
         "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}",
-        "case", "filter", "corr", "paper", "RMSE conv", "run.peak", "paper", "run.max cv", "paper", "t_conv", "PSD ±3dB Hz"
+        "case",
+        "filter",
+        "corr",
+        "paper",
+        "RMSE conv",
+        "run.peak",
+        "paper",
+        "run.max cv",
+        "paper",
+        "t_conv",
+        "PSD ±3dB Hz"
     );
     let mut failures = 0;
     for case in Case::ALL {
@@ -123,16 +137,20 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         let published = case.published();
         for kind in FilterKind::ALL {
             bar.set_message(format!("{case} {kind}"));
-            let stem = dir.join(format!("{}_{}", case.to_string().replace('/', "_"), kind.name().to_lowercase().replace('-', "")));
+            let stem = dir.join(format!(
+                "{}_{}",
+                case.to_string().replace('/', "_"),
+                kind.name().to_lowercase().replace('-', "")
+            ));
             let log = stem.with_extension("mcap");
-            let result = s1::fmu_run::run(&fmu, kind, &case, settings, &truth, &measurements, &log, &|| bar.inc(1))
-                .and_then(|()| {
-                    let run = read_log(&log)?;
-                    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
-                    let report = analyse(&run, &options)?;
-                    report.write_json(&stem.with_extension("json"))?;
-                    Ok(report)
-                });
+            let sim = s1::fmu_run::Simulated { case: &case, settings, truth: &truth, measurements: &measurements };
+            let result = s1::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1)).and_then(|()| {
+                let run = read_log(&log)?;
+                let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
+                let report = analyse(&run, &options)?;
+                report.write_json(&stem.with_extension("json"))?;
+                Ok(report)
+            });
             let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
             match result {
                 Ok(report) => {

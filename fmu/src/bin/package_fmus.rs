@@ -32,7 +32,7 @@ fn run() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().ok_or("no workspace root")?.to_path_buf();
     if args.iter().any(|a| a == "--write-model-descriptions") {
-        for d in estimators::all() {
+        for d in &estimators::all() {
             let dir = root.join("modelDescription").join(d.model_identifier);
             fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
             let path = dir.join("modelDescription.xml");
@@ -58,7 +58,7 @@ fn run() -> Result<(), String> {
     let binary = fs::read(&library)
         .map_err(|e| format!("{}: {e} (build it with cargo build --release -p fmu)", library.display()))?;
     fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    for d in estimators::all() {
+    for d in &estimators::all() {
         estimators::check(d)?;
         let path = out.join(format!("{}.fmu", d.model_identifier));
         let file = File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;

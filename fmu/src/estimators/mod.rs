@@ -5,8 +5,6 @@
 
 mod s1_load;
 
-use std::sync::OnceLock;
-
 use estimator::{FilterKind, Noise, StateEstimator, UnscentedParams};
 
 use crate::variables::{Causality, EnumerationType, Kind, Parameters, Role, Variability, Variable};
@@ -83,15 +81,16 @@ impl Descriptor {
     }
 }
 
-/// Every estimator FMU.
-pub fn all() -> &'static [Descriptor] {
-    static ALL: OnceLock<Vec<Descriptor>> = OnceLock::new();
-    ALL.get_or_init(|| vec![s1_load::descriptor()])
+/// Every estimator FMU, built afresh: each instance owns its description, so
+/// the library keeps no state at all between calls (not even a table it
+/// would never free when an importer unloads it).
+pub fn all() -> Vec<Descriptor> {
+    vec![s1_load::descriptor()]
 }
 
 /// The estimator with this GUID.
-pub fn by_guid(guid: &str) -> Option<&'static Descriptor> {
-    all().iter().find(|d| d.guid() == guid)
+pub fn by_guid(guid: &str) -> Option<Descriptor> {
+    all().into_iter().find(|d| d.guid() == guid)
 }
 
 /// The filter kinds as an FMI enumeration (set and got with `fmi2SetInteger`).

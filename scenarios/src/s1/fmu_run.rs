@@ -16,8 +16,21 @@ use crate::fmu_driver::ImportedFmu;
 
 /// The FMU's outputs that are logged on `/estimate`; those without `_std`
 /// have a namesake on `/truth`.
-const OUTPUTS: [&str; 13] =
-    ["F", "F_std", "z1", "z1_std", "z2", "z2_std", "z1_dot", "z1_dot_std", "z2_dot", "z2_dot_std", "F_dot", "F_dot_std", "nis"];
+const OUTPUTS: [&str; 13] = [
+    "F",
+    "F_std",
+    "z1",
+    "z1_std",
+    "z2",
+    "z2_std",
+    "z1_dot",
+    "z1_dot_std",
+    "z2_dot",
+    "z2_dot_std",
+    "F_dot",
+    "F_dot_std",
+    "nis",
+];
 
 /// The FMU's enumeration value of a filter kind (`FilterKind` in its modelDescription).
 fn filter_enumeration(kind: FilterKind) -> i32 {
@@ -57,17 +70,28 @@ fn parameters(case: &Case, settings: &Settings, measurements: &Measurements) -> 
     p
 }
 
-/// Runs `kind` on a case through the FMU and writes the log to `log`.
+/// One simulated case: what the truth simulator produced for it.
+pub struct Simulated<'a> {
+    /// The case.
+    pub case: &'a Case,
+    /// The study settings.
+    pub settings: &'a Settings,
+    /// The true history.
+    pub truth: &'a Truth,
+    /// The noisy accelerations.
+    pub measurements: &'a Measurements,
+}
+
+/// Runs `kind` on a simulated case through the FMU and writes the log to
+/// `log`; `progress` is called every 1000 samples.
 pub fn run(
     fmu: &ImportedFmu,
     kind: FilterKind,
-    case: &Case,
-    settings: &Settings,
-    truth: &Truth,
-    measurements: &Measurements,
+    sim: &Simulated<'_>,
     log: &Path,
     progress: &dyn Fn(),
 ) -> anyhow::Result<()> {
+    let Simulated { case, settings, truth, measurements } = *sim;
     let dt = settings.dt();
     let samples = truth.time.len();
     let params = parameters(case, settings, measurements);
@@ -81,7 +105,8 @@ pub fn run(
     let inputs = [fmu.vr("z1_ddot")?, fmu.vr("z2_ddot")?];
     let outputs: Vec<u32> = OUTPUTS.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
 
-    let parameters_json = serde_json::to_string(&params.iter().map(|(n, v)| (n.to_string(), *v)).collect::<BTreeMap<_, _>>())?;
+    let parameters_json =
+        serde_json::to_string(&params.iter().map(|(n, v)| (n.to_string(), *v)).collect::<BTreeMap<_, _>>())?;
     let metadata = BTreeMap::from([
         ("study".to_string(), "S1".to_string()),
         ("case".to_string(), case.to_string()),
