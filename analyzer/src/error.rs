@@ -88,4 +88,12 @@ pub enum LogError {
         /// What is wrong.
         what: String,
     },
+    /// The Rerun recording could not be written.
+    #[error("{file}: cannot write the Rerun recording: {what}")]
+    Rrd {
+        /// The `.rrd` file.
+        file: PathBuf,
+        /// What went wrong.
+        what: String,
+    },
 }

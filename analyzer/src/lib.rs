@@ -8,6 +8,7 @@
 //! let run = read_log(std::path::Path::new("run.mcap")).unwrap();
 //! let report = analyse(&run, &Options::default()).unwrap();
 //! print!("{}", report.table());
+//! analyzer::rrd::write_rrd(&report, &run, std::path::Path::new("run.rrd")).unwrap();
 //! ```
 
 pub mod error;
@@ -16,5 +17,6 @@ pub mod metrics;
 pub mod psd;
 pub mod read;
 pub mod report;
+pub mod rrd;
 
 pub use error::LogError;

@@ -1,7 +1,7 @@
 //! `analyzer`: metrics and recordings from kalfmu MCAP logs.
 //!
 //! Usage:
-//!   analyzer report RUN.mcap [--json OUT.json] [--pair truth.X=estimate.Y]…
+//!   analyzer report RUN.mcap [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]…
 //!
 //! Exit codes: 0 done, 1 the log or the analysis failed (the message names
 //! the file, channel and time), 2 bad arguments.
@@ -11,6 +11,7 @@ use std::process::ExitCode;
 
 use analyzer::read::read_log;
 use analyzer::report::{analyse, Options};
+use analyzer::rrd::write_rrd;
 use clap::{Parser, Subcommand};
 
 #[derive(Debug, Parser)]
@@ -22,7 +23,7 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Pair estimates with truth, print the metrics, write JSON.
+    /// Pair estimates with truth, print the metrics, write JSON and a Rerun recording.
     Report(ReportArgs),
 }
 
@@ -33,6 +34,9 @@ struct ReportArgs {
     /// Write the metrics as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write a Rerun recording (.rrd, for the Rerun viewer 0.36) here.
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// Pair a truth signal with an estimate signal: truth.X=estimate.Y (repeatable).
     #[arg(long = "pair", value_parser = parse_pair)]
     pairs: Vec<(String, String)>,
@@ -76,6 +80,9 @@ fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
             print!("{}", report.table());
             if let Some(path) = &args.json {
                 report.write_json(path)?;
+            }
+            if let Some(path) = &args.rrd {
+                write_rrd(&report, &run, path)?;
             }
             Ok(())
         }

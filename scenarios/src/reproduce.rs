@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use analyzer::read::read_log;
 use analyzer::report::{analyse, Options};
+use analyzer::rrd::write_rrd;
 use anyhow::{bail, Context};
 use estimator::FilterKind;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -103,7 +104,7 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         settings.seed
     );
     println!(
-        "estimates from {} driven through the fmi importer; logs, reports and recordings in {}",
+        "estimates from {} driven through the fmi importer; logs (.mcap), reports (.json) and Rerun recordings (.rrd) in {}",
         fmu_path.display(),
         dir.display()
     );
@@ -149,6 +150,7 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
                 let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
                 let report = analyse(&run, &options)?;
                 report.write_json(&stem.with_extension("json"))?;
+                write_rrd(&report, &run, &stem.with_extension("rrd"))?;
                 Ok(report)
             });
             let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
