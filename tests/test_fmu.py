@@ -163,6 +163,20 @@ SAME_LAW = {"eps1": 1e300, "eps2": 1e300}
 # --------------------------------------------------------------------------
 
 
+
+def test_the_shared_library_depends_only_on_libc_libm_and_libgcc_s(s1_fmu, unzipped, model_description):
+    """The binary in the FMU links nothing but the C runtime (libc, libm,
+    libgcc_s, and the dynamic loader): importers on other machines need no
+    extra library."""
+    identifier = model_description.coSimulation.modelIdentifier
+    so = unzipped / "binaries" / "linux64" / f"{identifier}.so"
+    assert so.is_file()
+    out = subprocess.run(["ldd", str(so)], check=True, capture_output=True, text=True).stdout
+    names = [line.split()[0] for line in out.splitlines() if line.strip()]
+    allowed = ("linux-vdso.so", "libc.so", "libm.so", "libgcc_s.so", "ld-linux", "/lib64/ld-linux")
+    assert names and all(n.startswith(allowed) for n in names), out
+    assert any(n.startswith("libc.so") for n in names), out
+
 def test_fmpy_validation_finds_no_problem(s1_fmu):
     """fmpy's validation (XSD, names, ModelStructure, start values,
     causality/variability, units) reports no problem."""
