@@ -46,6 +46,16 @@ impl Correction {
         }
     }
 
+    /// Starts `S` as `R` restricted to the used `rows` (the filters then add
+    /// their measurement spread to it).
+    pub fn set_noise_part(&mut self, r: &DMatrix<f64>, rows: &[usize]) {
+        for (b, &rb) in rows.iter().enumerate() {
+            for (a, &ra) in rows.iter().enumerate() {
+                self.s[(a, b)] = r[(ra, rb)];
+            }
+        }
+    }
+
     /// Applies the correction to `(x, p)`, writing `(x_out, p_out)`, and
     /// records the diagnostics. `z` is the full measurement; its used rows are
     /// `innovation.rows()`, and `z_hat`, `s`, `c` must hold their values.

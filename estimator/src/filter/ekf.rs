@@ -156,13 +156,7 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         // C = P·Hᵀ, S = H·C + R on the used rows.
         let cr = &mut self.correction;
         mul_to(self.p.as_slice(), n, n, n, self.h_t.as_slice(), n, mv, cr.c.as_mut_slice(), n);
-        let r = self.core.noise.r();
-        let rows = self.core.innovation.rows();
-        for (b, &rb) in rows.iter().enumerate() {
-            for (a, &ra) in rows.iter().enumerate() {
-                cr.s[(a, b)] = r[(ra, rb)];
-            }
-        }
+        cr.set_noise_part(self.core.noise.r(), self.core.innovation.rows());
         let m = cr.s.nrows();
         tr_mul_add(self.h_t.as_slice(), n, mv, n, cr.c.as_slice(), n, mv, cr.s.as_mut_slice(), m);
         cr.apply(

@@ -178,13 +178,7 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
             }
         }
         subtract_mean(&mut self.xs, self.core.x.as_slice());
-        let r = self.core.noise.r();
-        let rows = self.core.innovation.rows();
-        for (b, &rb) in rows.iter().enumerate() {
-            for (a, &ra) in rows.iter().enumerate() {
-                cr.s[(a, b)] = r[(ra, rb)];
-            }
-        }
+        cr.set_noise_part(self.core.noise.r(), self.core.innovation.rows());
         add_weighted_outer_products(cr.s.as_mut_slice(), m, &self.zs, mv, &self.zs, mv, &self.points);
         cr.c.fill(0.0);
         add_weighted_outer_products(cr.c.as_mut_slice(), n, &self.xs, n, &self.zs, mv, &self.points);
