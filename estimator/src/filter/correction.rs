@@ -56,17 +56,16 @@ impl Correction {
         }
     }
 
-    /// Applies the correction to `(x, p)`, writing `(x_out, p_out)`, and
-    /// records the diagnostics. `z` is the full measurement; its used rows are
+    /// Applies the correction to the belief `(x, p)`, computing into the
+    /// spare buffers `(x_next, p_next)` and swapping them in only on success
+    /// (a failed update leaves the belief as it was), and records the
+    /// diagnostics. `z` is the full measurement; its used rows are
     /// `innovation.rows()`, and `z_hat`, `s`, `c` must hold their values.
-    #[allow(clippy::too_many_arguments)]
     pub fn apply(
         &mut self,
         z: &DVector<f64>,
-        x: &DVector<f64>,
-        p: &DMatrix<f64>,
-        x_out: &mut DVector<f64>,
-        p_out: &mut DMatrix<f64>,
+        (x, x_next): (&mut DVector<f64>, &mut DVector<f64>),
+        (p, p_next): (&mut DMatrix<f64>, &mut DMatrix<f64>),
         innovation: &mut Innovation,
     ) -> Result<(), FilterError> {
         let m = self.s.nrows();
@@ -94,18 +93,20 @@ impl Correction {
         let y = self.y.as_slice();
         let e = &self.e.as_slice()[..mv];
         for q in 0..n {
-            x_out[q] = x[q] + dot(&y[q * m..q * m + mv], e);
+            x_next[q] = x[q] + dot(&y[q * m..q * m + mv], e);
         }
         for j in 0..n {
             for i in j..n {
                 let v = p[(i, j)] - dot(&y[i * m..i * m + mv], &y[j * m..j * m + mv]);
-                p_out[(i, j)] = v;
-                p_out[(j, i)] = v;
+                p_next[(i, j)] = v;
+                p_next[(j, i)] = v;
             }
         }
-        ensure_finite(x_out.iter(), Stage::Update, "updated state")?;
-        ensure_finite(p_out.iter(), Stage::Update, "updated covariance P")?;
+        ensure_finite(x_next.iter(), Stage::Update, "updated state")?;
+        ensure_finite(p_next.iter(), Stage::Update, "updated covariance P")?;
         innovation.record(self.z_hat.as_slice(), self.nu.as_slice(), self.s.as_slice(), m, self.l.as_slice(), m, e);
+        std::mem::swap(x, x_next);
+        std::mem::swap(p, p_next);
         Ok(())
     }
 }

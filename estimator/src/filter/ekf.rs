@@ -161,14 +161,10 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         tr_mul_add(self.h_t.as_slice(), n, mv, n, cr.c.as_slice(), n, mv, cr.s.as_mut_slice(), m);
         cr.apply(
             &self.core.z,
-            &self.core.x,
-            &self.p,
-            &mut self.core.x_next,
-            &mut self.p_next,
+            (&mut self.core.x, &mut self.core.x_next),
+            (&mut self.p, &mut self.p_next),
             &mut self.core.innovation,
         )?;
-        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
-        std::mem::swap(&mut self.p, &mut self.p_next);
         Ok(&self.core.innovation)
     }
 

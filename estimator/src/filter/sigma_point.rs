@@ -184,14 +184,10 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         add_weighted_outer_products(cr.c.as_mut_slice(), n, &self.xs, n, &self.zs, mv, &self.points);
         cr.apply(
             &self.core.z,
-            &self.core.x,
-            &self.p,
-            &mut self.core.x_next,
-            &mut self.p_next,
+            (&mut self.core.x, &mut self.core.x_next),
+            (&mut self.p, &mut self.p_next),
             &mut self.core.innovation,
         )?;
-        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
-        std::mem::swap(&mut self.p, &mut self.p_next);
         Ok(&self.core.innovation)
     }
 
