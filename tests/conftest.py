@@ -26,22 +26,23 @@ def target_dir(root: Path = ROOT) -> Path:
     return Path(json.loads(meta.stdout)["target_directory"])
 
 
-def build_scenarios(root: Path = ROOT) -> Path:
-    """`cargo build --release -p scenarios`; returns the path of the binary."""
-    subprocess.run(["cargo", "build", "--release", "-p", "scenarios"], cwd=root, check=True)
-    binary = target_dir(root) / "release" / "scenarios"
+def build_release_binary(package: str, root: Path = ROOT) -> Path:
+    """`cargo build --release -p PACKAGE`; returns the path of its binary (named like the package)."""
+    subprocess.run(["cargo", "build", "--release", "-p", package], cwd=root, check=True)
+    binary = target_dir(root) / "release" / package
     if not binary.is_file():
         raise FileNotFoundError(f"cargo build succeeded but {binary} is missing")
     return binary
+
+
+def build_scenarios(root: Path = ROOT) -> Path:
+    """The release `scenarios` binary."""
+    return build_release_binary("scenarios", root)
 
 
 def build_analyzer(root: Path = ROOT) -> Path:
-    """`cargo build --release -p analyzer`; returns the path of the binary."""
-    subprocess.run(["cargo", "build", "--release", "-p", "analyzer"], cwd=root, check=True)
-    binary = target_dir(root) / "release" / "analyzer"
-    if not binary.is_file():
-        raise FileNotFoundError(f"cargo build succeeded but {binary} is missing")
-    return binary
+    """The release `analyzer` binary."""
+    return build_release_binary("analyzer", root)
 
 
 def build_fmus(out: Path, root: Path = ROOT) -> Path:
