@@ -20,7 +20,7 @@ and prints a table: model, filter, ns/step ours, ns/step filterpy, ratio
 
     .venv/bin/python bench/filterpy_compare.py [--bin target/release/scenarios]
 
-Without --bin it runs `cargo build --release -p scenarios` first. filterpy's
+Without --bin it runs `cargo build --release --workspace` first. filterpy's
 time includes the NumPy model (that is what using filterpy on this model costs);
 both sides store the mean and covariance of every step.
 """
@@ -48,7 +48,7 @@ FILTERS = [("CKF", None, True), ("SRCKF", None, True), ("UKF", (1.0, 0.0, 0.0), 
 
 
 def build() -> Path:
-    subprocess.run(["cargo", "build", "--release", "-p", "scenarios"], cwd=ROOT, check=True)
+    subprocess.run(["cargo", "build", "--release", "--workspace"], cwd=ROOT, check=True)
     meta = subprocess.run(
         ["cargo", "metadata", "--format-version", "1", "--no-deps"], cwd=ROOT, check=True, capture_output=True, text=True
     )

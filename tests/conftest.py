@@ -26,10 +26,14 @@ def target_dir(root: Path = ROOT) -> Path:
     return Path(json.loads(meta.stdout)["target_directory"])
 
 
-def build_release_binary(package: str, root: Path = ROOT) -> Path:
-    """`cargo build --release -p PACKAGE`; returns the path of its binary (named like the package)."""
-    subprocess.run(["cargo", "build", "--release", "-p", package], cwd=root, check=True)
-    binary = target_dir(root) / "release" / package
+def build_release_binary(name: str, root: Path = ROOT) -> Path:
+    """`cargo build --release --workspace`; returns the path of the binary NAME.
+
+    Always the whole workspace, as the main job builds it: a single-package
+    build resolves other features on shared crates (log, chrono, ...) and would
+    rebuild much of the rerun tree a second time."""
+    subprocess.run(["cargo", "build", "--release", "--workspace"], cwd=root, check=True)
+    binary = target_dir(root) / "release" / name
     if not binary.is_file():
         raise FileNotFoundError(f"cargo build succeeded but {binary} is missing")
     return binary
@@ -46,12 +50,9 @@ def build_analyzer(root: Path = ROOT) -> Path:
 
 
 def build_fmus(out: Path, root: Path = ROOT) -> Path:
-    """`cargo build --release -p fmu`, then `package-fmus --out OUT`; returns OUT,
-    which holds one `<modelIdentifier>.fmu` per estimator."""
-    subprocess.run(["cargo", "build", "--release", "-p", "fmu"], cwd=root, check=True)
-    packager = target_dir(root) / "release" / "package-fmus"
-    if not packager.is_file():
-        raise FileNotFoundError(f"cargo build succeeded but {packager} is missing")
+    """The release build, then `package-fmus --out OUT`; returns OUT, which
+    holds one `<modelIdentifier>.fmu` per estimator."""
+    packager = build_release_binary("package-fmus", root)
     subprocess.run([str(packager), "--out", str(out)], cwd=root, check=True, capture_output=True, text=True)
     return out
 
