@@ -4,14 +4,15 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::FilterError;
-use crate::linalg::SymmetricEigen;
+use crate::linalg::{SymmetricEigen, Tria};
 
 /// Process noise `Q` (`n × n`) and measurement noise `R` (`m × m`).
 ///
 /// Both must be symmetric positive semi-definite; zeros are allowed (a state
 /// without process noise, a "perfect" sensor), and the square-root and SVD
-/// filters cope with them. Square roots are `U·√Λ` from an eigen-decomposition,
-/// so singular matrices have one too.
+/// filters cope with them. Their square roots are lower triangular, `Tria(U·√Λ)`
+/// from an eigen-decomposition, so singular matrices have one too (a Cholesky
+/// factorisation would fail on them).
 #[derive(Debug, Clone)]
 pub struct Noise {
     q: DMatrix<f64>,
@@ -24,8 +25,8 @@ impl Noise {
     /// Full `Q` and `R`. Fails on a matrix that is not square, not finite, not
     /// symmetric (relative 1e-12) or has an eigenvalue below `−1e-12·‖·‖`.
     pub fn new(q: DMatrix<f64>, r: DMatrix<f64>) -> Result<Self, FilterError> {
-        let q_sqrt = psd_square_root("process noise Q", &q)?;
-        let r_sqrt = psd_square_root("measurement noise R", &r)?;
+        let q_sqrt = lower_square_root("process noise Q", &q)?;
+        let r_sqrt = lower_square_root("measurement noise R", &r)?;
         Ok(Self { q, r, q_sqrt, r_sqrt })
     }
 
@@ -47,12 +48,13 @@ impl Noise {
         &self.r
     }
 
-    /// A square root `S_Q` with `S_Q·S_Qᵀ = Q`.
+    /// The lower-triangular square root `S_Q` with `S_Q·S_Qᵀ = Q` (the SRCKF's
+    /// predict exploits the triangle).
     pub fn q_sqrt(&self) -> &DMatrix<f64> {
         &self.q_sqrt
     }
 
-    /// A square root `S_R` with `S_R·S_Rᵀ = R`.
+    /// The lower-triangular square root `S_R` with `S_R·S_Rᵀ = R`.
     pub fn r_sqrt(&self) -> &DMatrix<f64> {
         &self.r_sqrt
     }
@@ -88,6 +90,22 @@ pub(crate) fn psd_square_root(name: &str, m: &DMatrix<f64>) -> Result<DMatrix<f6
     Ok(root)
 }
 
+/// A lower-triangular square root of a PSD matrix, with a non-negative diagonal.
+pub(crate) fn lower_square_root(name: &str, m: &DMatrix<f64>) -> Result<DMatrix<f64>, FilterError> {
+    let root = psd_square_root(name, m)?;
+    let n = root.nrows();
+    // Tria(root): the compound is `root` itself, its transpose filled row by row.
+    let mut tria = Tria::dense(n, n);
+    for j in 0..n {
+        for (k, v) in tria.column_mut(j).iter_mut().enumerate() {
+            *v = root[(j, k)];
+        }
+    }
+    let mut lower = DMatrix::zeros(n, n);
+    tria.factor(n, lower.as_mut_slice(), n);
+    Ok(lower)
+}
+
 /// Square, finite, symmetric to a relative 1e-12.
 pub(crate) fn check_symmetric(name: &str, m: &DMatrix<f64>) -> Result<(), FilterError> {
     if !m.is_square() {
@@ -116,6 +134,21 @@ mod tests {
         let noise = Noise::diagonal(&[4.0, 0.0, 9.0], &[0.25]).unwrap();
         assert_eq!(noise.q_sqrt().diagonal().as_slice(), &[2.0, 0.0, 3.0]);
         assert_eq!(noise.r_sqrt()[(0, 0)], 0.5);
+    }
+
+    #[test]
+    fn square_roots_are_lower_triangular_even_for_a_full_singular_matrix() {
+        // Q = v·vᵀ with v = (1, 2, 3): rank one, full.
+        let v = nalgebra::DVector::from_column_slice(&[1.0, 2.0, 3.0]);
+        let q = &v * v.transpose();
+        let noise = Noise::new(q.clone(), DMatrix::identity(2, 2)).unwrap();
+        let s = noise.q_sqrt();
+        assert!((s * s.transpose() - &q).norm() < 1e-12 * q.norm());
+        for j in 0..3 {
+            for i in 0..j {
+                assert_eq!(s[(i, j)], 0.0);
+            }
+        }
     }
 
     #[test]

@@ -14,7 +14,8 @@
 //!
 //! `Tria` is a Householder QR (see `linalg/tria.rs`). The compound matrices are
 //! built transposed, one row per point, so that the QR runs down contiguous
-//! columns.
+//! columns. `S_Q` is lower triangular (see [`Noise`]), so the predict compound
+//! `[S_Q, Y*]ᵀ` has an upper-triangular top block that the QR exploits.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -22,9 +23,9 @@ use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{axpy, dot, solve_lower, solve_lower_transposed, tria};
+use crate::linalg::{axpy, dot, solve_lower, solve_lower_transposed, Tria};
 use crate::model::Model;
-use crate::noise::{psd_square_root, Noise};
+use crate::noise::{lower_square_root, Noise};
 
 /// SRCKF. Keeps running where rounding would make the CKF's `P` indefinite.
 #[derive(Debug, Clone)]
@@ -37,10 +38,10 @@ pub struct SquareRootCubature<M> {
     xs: DMatrix<f64>,
     /// Propagated points (`n × 2n`).
     ys: DMatrix<f64>,
-    /// `[Y*, S_Q]ᵀ` (`3n × n`), then `[χ − W·γ, W·S_R]ᵀ` in `update_compound`.
-    predict_compound: DMatrix<f64>,
+    /// `[S_Q, Y*]ᵀ` (`3n × n`, upper-triangular top).
+    predict_compound: Tria,
     /// `[χ − W·γ, W·S_R]ᵀ` (`(2n + m) × n`).
-    update_compound: DMatrix<f64>,
+    update_compound: Tria,
     /// Measurement points on the used rows (`m × 2n`).
     zs: DMatrix<f64>,
     z_point: DVector<f64>,
@@ -48,11 +49,13 @@ pub struct SquareRootCubature<M> {
     /// `γᵀ` (`2n × m`, first `mv` columns used).
     gamma_t: DMatrix<f64>,
     /// `[γ, S_R]ᵀ` (`(2n + m) × m`).
-    zz_compound: DMatrix<f64>,
+    zz_compound: Tria,
     /// `S_zz` (`m × m`, top-left `mv × mv` used).
     s_zz: DMatrix<f64>,
     /// `S_R` restricted to the used rows (`m × m`, top `mv` rows used).
     s_r_used: DMatrix<f64>,
+    /// `D = γ[:, ..n] − γ[:, n..]` (`m × n`, top `mv` rows used).
+    gamma_diff: DMatrix<f64>,
     /// `Wᵀ` (`m × n`, top `mv` rows used).
     w_t: DMatrix<f64>,
     nu: DVector<f64>,
@@ -71,15 +74,16 @@ impl<M: Model> SquareRootCubature<M> {
             s_next: DMatrix::zeros(n, n),
             xs: DMatrix::zeros(n, 2 * n),
             ys: DMatrix::zeros(n, 2 * n),
-            predict_compound: DMatrix::zeros(3 * n, n),
-            update_compound: DMatrix::zeros(2 * n + m, n),
+            predict_compound: Tria::upper_on_top(3 * n, n),
+            update_compound: Tria::dense(2 * n + m, n),
             zs: DMatrix::zeros(m, 2 * n),
             z_point: DVector::zeros(m),
             z_hat: DVector::zeros(m),
             gamma_t: DMatrix::zeros(2 * n, m),
-            zz_compound: DMatrix::zeros(2 * n + m, m),
+            zz_compound: Tria::dense(2 * n + m, m),
             s_zz: DMatrix::zeros(m, m),
             s_r_used: DMatrix::zeros(m, m),
+            gamma_diff: DMatrix::zeros(m, n),
             w_t: DMatrix::zeros(m, n),
             nu: DVector::zeros(m),
             e: DVector::zeros(m),
@@ -103,9 +107,9 @@ impl<M: Model> SquareRootCubature<M> {
     /// `S ← Tria(root(P₀))`: a triangular square root of a PSD matrix.
     fn set_sqrt_from(&mut self, p0: &DMatrix<f64>) -> Result<(), FilterError> {
         let n = self.core.n();
-        let root = psd_square_root("initial covariance", p0)?;
-        let mut at = root.transpose();
-        tria(at.as_mut_slice(), n, n, n, self.s.as_mut_slice(), n);
+        let root = lower_square_root("initial covariance", p0)?;
+        debug_assert_eq!(root.nrows(), n);
+        self.s.copy_from(&root);
         Ok(())
     }
 
@@ -150,22 +154,21 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         for col in self.ys.as_slice().chunks_exact(n) {
             axpy(w, col, x_next);
         }
-        // Rows 0..2n of the transposed compound: (Yᵢ − x̂⁻)ᵀ/√(2n); rows 2n..3n: S_Qᵀ.
-        let ld = 3 * n;
+        // Column r of the transposed compound (row r of [S_Q, Y*]): S_Q's row r
+        // (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
         let scale = w.sqrt();
-        let at = self.predict_compound.as_mut_slice();
         let ys = self.ys.as_slice();
-        let sq = self.core.noise.q_sqrt().as_slice();
+        let sq = self.core.noise.q_sqrt();
         for r in 0..n {
-            let col = &mut at[r * ld..(r + 1) * ld];
-            for i in 0..2 * n {
-                col[i] = (ys[i * n + r] - x_next[r]) * scale;
+            let col = self.predict_compound.column_mut(r);
+            for k in 0..=r {
+                col[k] = sq[(r, k)];
             }
-            for k in 0..n {
-                col[2 * n + k] = sq[k * n + r];
+            for (i, c) in col[n..].iter_mut().enumerate() {
+                *c = (ys[i * n + r] - x_next[r]) * scale;
             }
         }
-        tria(at, ld, ld, n, self.s_next.as_mut_slice(), n);
+        self.predict_compound.factor(n, self.s_next.as_mut_slice(), n);
         ensure_finite(self.s_next.iter(), Stage::Predict, "predicted square-root covariance S")?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.s, &mut self.s_next);
@@ -213,32 +216,30 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
                 self.s_r_used[(a, k)] = s_r[(row, k)];
             }
         }
-        let ld_zz = n_pts + m;
         for a in 0..mv {
-            let col = &mut self.zz_compound.as_mut_slice()[a * ld_zz..(a + 1) * ld_zz];
+            let col = self.zz_compound.column_mut(a);
             col[..n_pts].copy_from_slice(&self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts]);
             for k in 0..m {
                 col[n_pts + k] = self.s_r_used[(a, k)];
             }
         }
-        tria(self.zz_compound.as_mut_slice(), ld_zz, ld_zz, mv, self.s_zz.as_mut_slice(), m);
+        self.zz_compound.factor(mv, self.s_zz.as_mut_slice(), m);
 
-        // χᵀ into the top of the update compound: χ = [Xᵢ − x̂⁻]/√(2n) = [S, −S]/√2 for
-        // the cubature points. Then Wᵀ = P_xzᵀ = γ·χᵀ and the two solves.
-        let ld_u = n_pts + m;
+        // Wᵀ = P_xzᵀ, then the two solves. For cubature points χ = [Xᵢ − x̂⁻]/√(2n)
+        // = [S, −S]/√2, so P_xz = χ·γᵀ = S·Dᵀ/√2 with D = γ[:, ..n] − γ[:, n..]:
+        // a triangular product, a quarter of the work of χ·γᵀ.
         let s = self.s.as_slice();
-        for (q, col) in self.update_compound.as_mut_slice().chunks_exact_mut(ld_u).enumerate() {
-            let (plus, minus) = col[..n_pts].split_at_mut(n);
-            for (j, (p, mi)) in plus.iter_mut().zip(minus.iter_mut()).enumerate() {
-                let v = s[j * n + q] * std::f64::consts::FRAC_1_SQRT_2;
-                *p = v;
-                *mi = -v;
+        for j in 0..n {
+            for a in 0..mv {
+                self.gamma_diff[(a, j)] = self.gamma_t[(j, a)] - self.gamma_t[(n + j, a)];
             }
         }
-        for q in 0..n {
-            let chi_q = &self.update_compound.as_slice()[q * ld_u..q * ld_u + n_pts];
-            for a in 0..mv {
-                self.w_t[(a, q)] = dot(&self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts], chi_q);
+        let d = self.gamma_diff.as_slice();
+        for (q, w_q) in self.w_t.as_mut_slice().chunks_exact_mut(m).enumerate() {
+            let w_q = &mut w_q[..mv];
+            w_q.fill(0.0);
+            for j in 0..=q {
+                axpy(s[j * n + q] * std::f64::consts::FRAC_1_SQRT_2, &d[j * m..j * m + mv], w_q);
             }
         }
         let s_zz = self.s_zz.as_slice();
@@ -262,9 +263,16 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
             self.core.x_next[q] = self.core.x[q] + dot(&w_t[q * m..q * m + mv], &self.nu.as_slice()[..mv]);
         }
 
-        // S = Tria([χ − W·γ, W·S_R]): top rows χᵀ − γᵀ·Wᵀ, bottom rows S_R,usedᵀ·Wᵀ.
+        // S = Tria([χ − W·γ, W·S_R]): column q of the transposed compound is
+        // χ's row q minus γᵀ·(Wᵀ)_q, then (W·S_R,used)'s row q.
         for q in 0..n {
-            let (top, bottom) = self.update_compound.as_mut_slice()[q * ld_u..(q + 1) * ld_u].split_at_mut(n_pts);
+            let (top, bottom) = self.update_compound.column_mut(q).split_at_mut(n_pts);
+            let (plus, minus) = top.split_at_mut(n);
+            for (j, (p, mi)) in plus.iter_mut().zip(minus.iter_mut()).enumerate() {
+                let v = s[j * n + q] * std::f64::consts::FRAC_1_SQRT_2;
+                *p = v;
+                *mi = -v;
+            }
             let w_q = &w_t[q * m..q * m + mv];
             for (a, &w) in w_q.iter().enumerate() {
                 axpy(-w, &self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts], top);
@@ -273,7 +281,7 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
                 *v = dot(&self.s_r_used.as_slice()[k * m..k * m + mv], w_q);
             }
         }
-        tria(self.update_compound.as_mut_slice(), ld_u, ld_u, n, self.s_next.as_mut_slice(), n);
+        self.update_compound.factor(n, self.s_next.as_mut_slice(), n);
         ensure_finite(self.core.x_next.iter(), Stage::Update, "updated state")?;
         ensure_finite(self.s_next.iter(), Stage::Update, "updated square-root covariance S")?;
 

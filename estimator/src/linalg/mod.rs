@@ -8,12 +8,13 @@
 //! workspace (fewer valid measurement rows) is handled without copying.
 
 mod cholesky;
+mod lanes;
 mod symmetric_eigen;
 mod tria;
 
 pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_lower_transposed};
 pub use symmetric_eigen::SymmetricEigen;
-pub(crate) use tria::tria;
+pub(crate) use tria::Tria;
 
 /// Dot product with four independent accumulators over exact chunks (no
 /// bounds checks, and a reduction order the compiler may vectorise).
