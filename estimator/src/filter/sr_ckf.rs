@@ -23,7 +23,9 @@ use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{axpy, dot, solve_lower, solve_lower_transposed, Tria};
+#[cfg(target_arch = "x86_64")]
+use crate::linalg::Avx2;
+use crate::linalg::{axpy, solve_lower, solve_right_lower, solve_right_lower_transposed, Tria};
 use crate::model::Model;
 use crate::noise::{lower_square_root, Noise};
 
@@ -54,10 +56,8 @@ pub struct SquareRootCubature<M> {
     s_zz: DMatrix<f64>,
     /// `S_R` restricted to the used rows (`m × m`, top `mv` rows used).
     s_r_used: DMatrix<f64>,
-    /// `D = γ[:, ..n] − γ[:, n..]` (`m × n`, top `mv` rows used).
-    gamma_diff: DMatrix<f64>,
-    /// `Wᵀ` (`m × n`, top `mv` rows used).
-    w_t: DMatrix<f64>,
+    /// `P_xz`, then the gain `W` (`n × m`, first `mv` columns used).
+    gain: DMatrix<f64>,
     nu: DVector<f64>,
     e: DVector<f64>,
     s_innovation: DMatrix<f64>,
@@ -83,8 +83,7 @@ impl<M: Model> SquareRootCubature<M> {
             zz_compound: Tria::dense(2 * n + m, m),
             s_zz: DMatrix::zeros(m, m),
             s_r_used: DMatrix::zeros(m, m),
-            gamma_diff: DMatrix::zeros(m, n),
-            w_t: DMatrix::zeros(m, n),
+            gain: DMatrix::zeros(n, m),
             nu: DVector::zeros(m),
             e: DVector::zeros(m),
             s_innovation: DMatrix::zeros(m, m),
@@ -114,40 +113,33 @@ impl<M: Model> SquareRootCubature<M> {
     }
 
     /// Spreads `xs = x̂ ± √n·S·eⱼ`.
+    #[inline(always)]
     fn spread(&mut self) {
         let n = self.core.n();
         let c = (n as f64).sqrt();
         let x = self.core.x.as_slice();
-        let s = self.s.as_slice();
-        let xs = self.xs.as_mut_slice();
-        for j in 0..n {
-            let col = &s[j * n..(j + 1) * n];
-            for i in 0..n {
-                xs[j * n + i] = x[i] + c * col[i];
-                xs[(n + j) * n + i] = x[i] - c * col[i];
+        let (plus, minus) = self.xs.as_mut_slice().split_at_mut(n * n);
+        let columns = self.s.as_slice().chunks_exact(n).zip(plus.chunks_exact_mut(n).zip(minus.chunks_exact_mut(n)));
+        for (col, (p, m)) in columns {
+            for (((p, m), xi), si) in p.iter_mut().zip(m.iter_mut()).zip(x).zip(col) {
+                *p = xi + c * si;
+                *m = xi - c * si;
             }
         }
     }
-}
 
-impl<M: Model> StateEstimator for SquareRootCubature<M> {
-    core_accessors!();
-
-    fn kind(&self) -> FilterKind {
-        FilterKind::SrCkf
-    }
-
-    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+    /// The time update (compiled once portable and once with AVX2, see `predict`).
+    #[inline(always)]
+    fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
         self.spread();
         let n = self.core.n();
         let t = self.core.t;
-        for i in 0..2 * n {
-            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
-            let y = &mut self.ys.as_mut_slice()[i * n..(i + 1) * n];
+        let points = self.xs.as_slice().chunks_exact(n).zip(self.ys.as_mut_slice().chunks_exact_mut(n));
+        for (x, y) in points {
             self.core.model.transition(t, dt, x, self.core.u.as_slice(), y);
         }
-        ensure_finite(self.ys.iter(), Stage::Predict, "propagated cubature points")?;
+        ensure_finite(self.ys.as_slice(), Stage::Predict, "propagated cubature points")?;
         let x_next = self.core.x_next.as_mut_slice();
         x_next.fill(0.0);
         let w = 0.5 / n as f64;
@@ -158,29 +150,32 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         // (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
         let scale = w.sqrt();
         let ys = self.ys.as_slice();
-        let sq = self.core.noise.q_sqrt();
-        for r in 0..n {
+        let sq = self.core.noise.q_sqrt().as_slice();
+        for (r, &x_r) in x_next.iter().enumerate() {
             let col = self.predict_compound.column_mut(r);
-            for k in 0..=r {
-                col[k] = sq[(r, k)];
+            let (head, points) = col.split_at_mut(n);
+            for (k, c) in head[..=r].iter_mut().enumerate() {
+                *c = sq[k * n + r];
             }
-            for (i, c) in col[n..].iter_mut().enumerate() {
-                *c = (ys[i * n + r] - x_next[r]) * scale;
+            for (c, y) in points.iter_mut().zip(ys.chunks_exact(n)) {
+                *c = (y[r] - x_r) * scale;
             }
         }
         self.predict_compound.factor(n, self.s_next.as_mut_slice(), n);
-        ensure_finite(self.s_next.iter(), Stage::Predict, "predicted square-root covariance S")?;
+        ensure_finite(self.s_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.s, &mut self.s_next);
         self.core.t = t + dt;
         Ok(())
     }
 
-    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
+    /// The measurement update (compiled once portable and once with AVX2).
+    #[inline(always)]
+    fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
         let mv = self.core.begin_update(z)?;
         if mv == 0 {
             self.core.innovation.record_none();
-            return Ok(&self.core.innovation);
+            return Ok(());
         }
         self.spread();
         let (n, m) = (self.core.n(), self.core.m());
@@ -188,26 +183,30 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         let scale = (0.5 / n as f64).sqrt();
         let rows = self.core.innovation.rows();
 
-        // Measurement points on the used rows, their mean ẑ, and γᵀ.
-        for i in 0..n_pts {
-            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
-            self.core.model.observe(self.core.t, x, self.core.u.as_slice(), self.z_point.as_mut_slice());
-            for (a, &row) in rows.iter().enumerate() {
-                self.zs[(a, i)] = self.z_point[row];
+        // Measurement points on the used rows (`zs`, one column per point), their mean ẑ, and γᵀ.
+        let points = self.xs.as_slice().chunks_exact(n).zip(self.zs.as_mut_slice().chunks_exact_mut(m));
+        for (x, z_used) in points {
+            let z_point = self.z_point.as_mut_slice();
+            self.core.model.observe(self.core.t, x, self.core.u.as_slice(), z_point);
+            for (zu, &row) in z_used.iter_mut().zip(rows) {
+                *zu = z_point[row];
             }
         }
-        let used = (0..n_pts).flat_map(|i| &self.zs.as_slice()[i * m..i * m + mv]);
+        let zs = self.zs.as_slice();
+        let used = zs.chunks_exact(m).flat_map(|z_used| &z_used[..mv]);
         ensure_finite(used, Stage::Update, "measurement cubature points")?;
         let z_hat = &mut self.z_hat.as_mut_slice()[..mv];
         z_hat.fill(0.0);
-        for i in 0..n_pts {
-            axpy(1.0 / n_pts as f64, &self.zs.as_slice()[i * m..i * m + mv], z_hat);
+        for z_used in zs.chunks_exact(m) {
+            axpy(1.0 / n_pts as f64, &z_used[..mv], z_hat);
         }
-        for (a, zh) in z_hat.iter().enumerate() {
-            for i in 0..n_pts {
-                self.gamma_t[(i, a)] = (self.zs[(a, i)] - zh) * scale;
+        let gamma_t = self.gamma_t.as_mut_slice();
+        for (a, (g, zh)) in gamma_t.chunks_exact_mut(n_pts).zip(z_hat.iter()).enumerate() {
+            for (gi, z_used) in g.iter_mut().zip(zs.chunks_exact(m)) {
+                *gi = (z_used[a] - zh) * scale;
             }
         }
+        let gamma_t = self.gamma_t.as_slice();
 
         // S_R on the used rows, and S_zz = Tria([γ, S_R]).
         let s_r = self.core.noise.r_sqrt();
@@ -218,33 +217,30 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         }
         for a in 0..mv {
             let col = self.zz_compound.column_mut(a);
-            col[..n_pts].copy_from_slice(&self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts]);
+            col[..n_pts].copy_from_slice(&gamma_t[a * n_pts..(a + 1) * n_pts]);
             for k in 0..m {
                 col[n_pts + k] = self.s_r_used[(a, k)];
             }
         }
         self.zz_compound.factor(mv, self.s_zz.as_mut_slice(), m);
 
-        // Wᵀ = P_xzᵀ, then the two solves. For cubature points χ = [Xᵢ − x̂⁻]/√(2n)
-        // = [S, −S]/√2, so P_xz = χ·γᵀ = S·Dᵀ/√2 with D = γ[:, ..n] − γ[:, n..]:
-        // a triangular product, a quarter of the work of χ·γᵀ.
+        // P_xz, then W = P_xz·S_zz⁻ᵀ·S_zz⁻¹ by two triangular solves from the
+        // right. For cubature points χ = [Xᵢ − x̂⁻]/√(2n) = [S, −S]/√2, so
+        // P_xz = χ·γᵀ = S·Dᵀ/√2 with D = γ[:, ..n] − γ[:, n..]: a triangular
+        // product, a quarter of the work of χ·γᵀ.
         let s = self.s.as_slice();
-        for j in 0..n {
-            for a in 0..mv {
-                self.gamma_diff[(a, j)] = self.gamma_t[(j, a)] - self.gamma_t[(n + j, a)];
-            }
-        }
-        let d = self.gamma_diff.as_slice();
-        for (q, w_q) in self.w_t.as_mut_slice().chunks_exact_mut(m).enumerate() {
-            let w_q = &mut w_q[..mv];
-            w_q.fill(0.0);
-            for j in 0..=q {
-                axpy(s[j * n + q] * std::f64::consts::FRAC_1_SQRT_2, &d[j * m..j * m + mv], w_q);
+        let gain = self.gain.as_mut_slice();
+        for (a, p_a) in gain.chunks_exact_mut(n).take(mv).enumerate() {
+            let g = &gamma_t[a * n_pts..(a + 1) * n_pts];
+            p_a.fill(0.0);
+            for j in 0..n {
+                let d = (g[j] - g[n + j]) * std::f64::consts::FRAC_1_SQRT_2;
+                axpy(d, &s[j * n + j..(j + 1) * n], &mut p_a[j..]);
             }
         }
         let s_zz = self.s_zz.as_slice();
-        let solved = solve_lower(s_zz, m, mv, self.w_t.as_mut_slice(), m, n)
-            && solve_lower_transposed(s_zz, m, mv, self.w_t.as_mut_slice(), m, n);
+        let solved =
+            solve_right_lower_transposed(s_zz, m, mv, gain, n, n) && solve_right_lower(s_zz, m, mv, gain, n, n);
         if !solved {
             return Err(FilterError::NotPositiveDefinite {
                 stage: Stage::Update,
@@ -258,13 +254,15 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
             self.e[a] = self.nu[a];
         }
         solve_lower(s_zz, m, mv, self.e.as_mut_slice(), m, 1);
-        let w_t = self.w_t.as_slice();
-        for q in 0..n {
-            self.core.x_next[q] = self.core.x[q] + dot(&w_t[q * m..q * m + mv], &self.nu.as_slice()[..mv]);
+        let gain = self.gain.as_slice();
+        let x_next = self.core.x_next.as_mut_slice();
+        x_next.copy_from_slice(self.core.x.as_slice());
+        for (w_a, &nu_a) in gain.chunks_exact(n).zip(&self.nu.as_slice()[..mv]) {
+            axpy(nu_a, w_a, x_next);
         }
 
         // S = Tria([χ − W·γ, W·S_R]): column q of the transposed compound is
-        // χ's row q minus γᵀ·(Wᵀ)_q, then (W·S_R,used)'s row q.
+        // χ's row q minus γᵀ·(W's row q), then (W·S_R,used)'s row q.
         for q in 0..n {
             let (top, bottom) = self.update_compound.column_mut(q).split_at_mut(n_pts);
             let (plus, minus) = top.split_at_mut(n);
@@ -273,23 +271,22 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
                 *p = v;
                 *mi = -v;
             }
-            let w_q = &w_t[q * m..q * m + mv];
-            for (a, &w) in w_q.iter().enumerate() {
-                axpy(-w, &self.gamma_t.as_slice()[a * n_pts..(a + 1) * n_pts], top);
+            for a in 0..mv {
+                axpy(-gain[a * n + q], &gamma_t[a * n_pts..(a + 1) * n_pts], top);
             }
             for (k, v) in bottom.iter_mut().enumerate() {
-                *v = dot(&self.s_r_used.as_slice()[k * m..k * m + mv], w_q);
+                let s_r_k = &self.s_r_used.as_slice()[k * m..k * m + mv];
+                *v = s_r_k.iter().enumerate().map(|(a, r)| gain[a * n + q] * r).sum();
             }
         }
         self.update_compound.factor(n, self.s_next.as_mut_slice(), n);
-        ensure_finite(self.core.x_next.iter(), Stage::Update, "updated state")?;
-        ensure_finite(self.s_next.iter(), Stage::Update, "updated square-root covariance S")?;
+        ensure_finite(self.core.x_next.as_slice(), Stage::Update, "updated state")?;
+        ensure_finite(self.s_next.as_slice(), Stage::Update, "updated square-root covariance S")?;
 
         // Diagnostics: S_innovation = S_zz·S_zzᵀ on the used rows.
         for b in 0..mv {
             for a in b..mv {
-                let k_max = b + 1;
-                let v: f64 = (0..k_max).map(|k| self.s_zz[(a, k)] * self.s_zz[(b, k)]).sum();
+                let v: f64 = (0..=b).map(|k| self.s_zz[(a, k)] * self.s_zz[(b, k)]).sum();
                 self.s_innovation[(a, b)] = v;
                 self.s_innovation[(b, a)] = v;
             }
@@ -305,6 +302,46 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         );
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.s, &mut self.s_next);
+        Ok(())
+    }
+}
+
+impl<M: Model> StateEstimator for SquareRootCubature<M> {
+    core_accessors!();
+
+    fn kind(&self) -> FilterKind {
+        FilterKind::SrCkf
+    }
+
+    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            #[target_feature(enable = "avx2")]
+            fn run<M: Model>(f: &mut SquareRootCubature<M>, _: Avx2, u: &[f64], dt: f64) -> Result<(), FilterError> {
+                f.predict_body(u, dt)
+            }
+            #[allow(unsafe_code)]
+            // SAFETY: `avx2` exists, so the CPU has AVX2.
+            return unsafe { run(self, avx2, u, dt) };
+        }
+        self.predict_body(u, dt)
+    }
+
+    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            #[target_feature(enable = "avx2")]
+            fn run<M: Model>(f: &mut SquareRootCubature<M>, _: Avx2, z: &[f64]) -> Result<(), FilterError> {
+                f.update_body(z)
+            }
+            #[allow(unsafe_code)]
+            // SAFETY: `avx2` exists, so the CPU has AVX2.
+            unsafe {
+                run(self, avx2, z)?
+            };
+            return Ok(&self.core.innovation);
+        }
+        self.update_body(z)?;
         Ok(&self.core.innovation)
     }
 

@@ -1,6 +1,6 @@
 //! Cholesky factorisation `A = L·Lᵀ` and the two triangular solves that use it.
 
-use super::{axpy, dot};
+use super::axpy;
 
 /// Overwrites the lower triangle of the `n×n` matrix in `a` (leading dimension
 /// `ld`) by its Cholesky factor `L` and zeroes the strict upper triangle.
@@ -57,17 +57,58 @@ pub(crate) fn solve_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: u
     true
 }
 
-/// Solves `Lᵀ·X = B` in place (see [`solve_lower`] for the layout).
-pub(crate) fn solve_lower_transposed(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: usize, n_rhs: usize) -> bool {
-    for r in 0..n_rhs {
-        let x = &mut b[r * ldb..r * ldb + n];
-        for j in (0..n).rev() {
-            let d = l[j * ldl + j];
-            if d == 0.0 {
-                return false;
+/// Solves `X·Lᵀ = B` in place for a lower-triangular `L` (`n×n`, leading
+/// dimension `ldl`) and `B` of `rows × n` (leading dimension `ldb`), column by
+/// column (each step an axpy down a contiguous column). Returns `false` on a
+/// zero diagonal.
+pub(crate) fn solve_right_lower_transposed(
+    l: &[f64],
+    ldl: usize,
+    n: usize,
+    b: &mut [f64],
+    ldb: usize,
+    rows: usize,
+) -> bool {
+    // Column a of X·Lᵀ is Σ_{c ≤ a} L[a, c]·X[:, c]: forward over the columns.
+    for a in 0..n {
+        let d = l[a * ldl + a];
+        if d == 0.0 {
+            return false;
+        }
+        let (done, rest) = b.split_at_mut(a * ldb);
+        let x_a = &mut rest[..rows];
+        for c in 0..a {
+            let l_ac = l[c * ldl + a];
+            if l_ac != 0.0 {
+                axpy(-l_ac, &done[c * ldb..c * ldb + rows], x_a);
             }
-            let s = dot(&l[j * ldl + j + 1..j * ldl + n], &x[j + 1..n]);
-            x[j] = (x[j] - s) / d;
+        }
+        for v in x_a.iter_mut() {
+            *v /= d;
+        }
+    }
+    true
+}
+
+/// Solves `X·L = B` in place (see [`solve_right_lower_transposed`] for the layout).
+pub(crate) fn solve_right_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: usize, rows: usize) -> bool {
+    // Column a of X·L is Σ_{c ≥ a} L[c, a]·X[:, c]: backward over the columns.
+    for a in (0..n).rev() {
+        let d = l[a * ldl + a];
+        if d == 0.0 {
+            return false;
+        }
+        let (head, later) = b.split_at_mut((a + 1) * ldb);
+        let x_a = &mut head[a * ldb..a * ldb + rows];
+        for c in a + 1..n {
+            let l_ca = l[a * ldl + c];
+            if l_ca != 0.0 {
+                let off = (c - a - 1) * ldb;
+                axpy(-l_ca, &later[off..off + rows], x_a);
+            }
+        }
+        for v in x_a.iter_mut() {
+            *v /= d;
         }
     }
     true
@@ -102,14 +143,31 @@ mod tests {
     }
 
     #[test]
-    fn solves_invert_the_factor() {
+    fn solve_inverts_the_factor() {
         let a = spd(5);
         let mut l = a.clone();
         cholesky_in_place(l.as_mut_slice(), 5, 5).unwrap();
         let b = DMatrix::from_fn(5, 3, |i, j| (i as f64) - 2.0 * j as f64);
         let mut x = b.clone();
         assert!(solve_lower(l.as_slice(), 5, 5, x.as_mut_slice(), 5, 3));
-        assert!(solve_lower_transposed(l.as_slice(), 5, 5, x.as_mut_slice(), 5, 3));
-        assert!((&a * &x - &b).norm() < 1e-10 * b.norm());
+        assert!((&l * &x - &b).norm() < 1e-10 * b.norm());
+    }
+
+    #[test]
+    fn right_solves_give_b_times_the_inverse() {
+        // X·Lᵀ = B, then X·L = that: X = B·(L·Lᵀ)⁻¹ = B·A⁻¹, on a top-left block of a larger L.
+        let a = spd(6);
+        let mut l = a.clone();
+        cholesky_in_place(l.as_mut_slice(), 6, 6).unwrap();
+        let b = DMatrix::from_fn(9, 4, |i, j| (i as f64) * 0.5 - j as f64);
+        let mut x = b.clone();
+        assert!(solve_right_lower_transposed(l.as_slice(), 6, 4, x.as_mut_slice(), 9, 9));
+        assert!(solve_right_lower(l.as_slice(), 6, 4, x.as_mut_slice(), 9, 9));
+        let a4 = a.view((0, 0), (4, 4)).into_owned();
+        assert!((&x * &a4 - &b).norm() < 1e-10 * b.norm());
+        let mut singular = DMatrix::<f64>::zeros(2, 2);
+        singular[(1, 1)] = 1.0;
+        assert!(!solve_right_lower_transposed(singular.as_slice(), 2, 2, x.as_mut_slice(), 9, 9));
+        assert!(!solve_right_lower(singular.as_slice(), 2, 2, x.as_mut_slice(), 9, 9));
     }
 }

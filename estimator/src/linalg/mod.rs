@@ -12,7 +12,9 @@ mod lanes;
 mod symmetric_eigen;
 mod tria;
 
-pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_lower_transposed};
+pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_right_lower, solve_right_lower_transposed};
+#[cfg(target_arch = "x86_64")]
+pub(crate) use lanes::Avx2;
 pub use symmetric_eigen::SymmetricEigen;
 pub(crate) use tria::Tria;
 
