@@ -161,8 +161,9 @@ class SpringChainForces:
         dv[1:] = v[1:] - v[:-1]
         element = self.stiffness * dz + self.damper.force_array(dv)
         above = np.append(element[1:], 0.0)
-        out = (above - element) / self.mass
-        out[self.FORCES] += f / self.mass
+        inv_mass = 1.0 / self.mass  # multiplied, as the Rust model does (no divisions in the hot loop)
+        out = (above - element) * inv_mass
+        out[self.FORCES] += f * inv_mass
         return out
 
     def derivative(self, x: np.ndarray) -> np.ndarray:

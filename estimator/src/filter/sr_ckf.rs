@@ -58,6 +58,8 @@ pub struct SquareRootCubature<M> {
     s_r_used: DMatrix<f64>,
     /// `P_xz`, then the gain `W` (`n × m`, first `mv` columns used).
     gain: DMatrix<f64>,
+    /// `W·S_R,used` (`n × m`).
+    w_s_r: DMatrix<f64>,
     nu: DVector<f64>,
     e: DVector<f64>,
     s_innovation: DMatrix<f64>,
@@ -84,6 +86,7 @@ impl<M: Model> SquareRootCubature<M> {
             s_zz: DMatrix::zeros(m, m),
             s_r_used: DMatrix::zeros(m, m),
             gain: DMatrix::zeros(n, m),
+            w_s_r: DMatrix::zeros(n, m),
             nu: DVector::zeros(m),
             e: DVector::zeros(m),
             s_innovation: DMatrix::zeros(m, m),
@@ -261,6 +264,20 @@ impl<M: Model> SquareRootCubature<M> {
             axpy(nu_a, w_a, x_next);
         }
 
+        // W·S_R,used, column by column (S_R is lower triangular, often diagonal:
+        // its zeros are skipped).
+        let w_s_r = self.w_s_r.as_mut_slice();
+        for (k, out) in w_s_r.chunks_exact_mut(n).enumerate() {
+            out.fill(0.0);
+            for (a, w_a) in gain.chunks_exact(n).take(mv).enumerate() {
+                let r = self.s_r_used[(a, k)];
+                if r != 0.0 {
+                    axpy(r, w_a, out);
+                }
+            }
+        }
+        let w_s_r = self.w_s_r.as_slice();
+
         // S = Tria([χ − W·γ, W·S_R]): column q of the transposed compound is
         // χ's row q minus γᵀ·(W's row q), then (W·S_R,used)'s row q.
         for q in 0..n {
@@ -275,8 +292,7 @@ impl<M: Model> SquareRootCubature<M> {
                 axpy(-gain[a * n + q], &gamma_t[a * n_pts..(a + 1) * n_pts], top);
             }
             for (k, v) in bottom.iter_mut().enumerate() {
-                let s_r_k = &self.s_r_used.as_slice()[k * m..k * m + mv];
-                *v = s_r_k.iter().enumerate().map(|(a, r)| gain[a * n + q] * r).sum();
+                *v = w_s_r[k * n + q];
             }
         }
         self.update_compound.factor(n, self.s_next.as_mut_slice(), n);

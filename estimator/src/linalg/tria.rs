@@ -281,4 +281,25 @@ mod tests {
         tria.factor(6, s.as_mut_slice(), 6);
         assert_square_root(&s, &a, "after a non-finite input");
     }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_path_gives_the_portable_result_bit_for_bit() {
+        let Some(avx2) = Avx2::detect() else {
+            eprintln!("no AVX2 on this CPU: only the portable path runs here");
+            return;
+        };
+        for &(rows, cols, upper) in &[(72, 24, true), (55, 24, false), (55, 7, false), (13, 5, false), (9, 9, true)] {
+            let a = compound(cols, rows);
+            let build = || {
+                let mut t = if upper { Tria::upper_on_top(rows, cols) } else { Tria::dense(rows, cols) };
+                fill(&mut t, &a.transpose());
+                t
+            };
+            let (mut fast, mut portable) = (build(), build());
+            fast.householder_avx2(avx2, cols);
+            portable.householder(Portable, cols);
+            assert_eq!(fast.at, portable.at, "rows={rows} cols={cols} upper={upper}");
+        }
+    }
 }

@@ -41,14 +41,16 @@ impl SpringChainForces {
             let (dz, dv) = if i == 0 { (z[0], v[0]) } else { (z[i] - z[i - 1], v[i] - v[i - 1]) };
             self.stiffness * dz + self.damper.force(dv)
         };
+        // Multiplied by 1/m: a division per mass would cost more than the rest of the law.
+        let inv_mass = 1.0 / self.mass;
         let mut below = element(0);
         for (i, acc) in out.iter_mut().enumerate().take(MASSES) {
             let above = if i + 1 < MASSES { element(i + 1) } else { 0.0 };
-            *acc = (above - below) / self.mass;
+            *acc = (above - below) * inv_mass;
             below = above;
         }
         for (k, &i) in FORCES.iter().enumerate() {
-            out[i] += f[k] / self.mass;
+            out[i] += f[k] * inv_mass;
         }
     }
 }
