@@ -363,12 +363,20 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
 
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         let n = self.core.n();
+        let s = self.s.as_slice();
+        let p = out.as_mut_slice();
+        // S is lower triangular: column j of S·Sᵀ below the diagonal is
+        // Σ_{k ≤ j} S_jk·S[j.., k], axpys down contiguous columns; then mirrored.
         for j in 0..n {
-            for i in j..n {
-                // S is lower triangular: (S·Sᵀ)ᵢⱼ = Σ_{k ≤ j} S_ik·S_jk.
-                let v: f64 = (0..=j).map(|k| self.s[(i, k)] * self.s[(j, k)]).sum();
-                out[(i, j)] = v;
-                out[(j, i)] = v;
+            let col = &mut p[j * n + j..(j + 1) * n];
+            col.fill(0.0);
+            for k in 0..=j {
+                axpy(s[k * n + j], &s[k * n + j..(k + 1) * n], col);
+            }
+        }
+        for j in 0..n {
+            for i in j + 1..n {
+                p[i * n + j] = p[j * n + i];
             }
         }
     }
