@@ -25,7 +25,7 @@ use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
 #[cfg(target_arch = "x86_64")]
 use crate::linalg::Avx2;
-use crate::linalg::{axpy, solve_lower, solve_right_lower, solve_right_lower_transposed, Tria};
+use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, Tria};
 use crate::model::Model;
 use crate::noise::{lower_square_root, Noise};
 
@@ -300,13 +300,7 @@ impl<M: Model> SquareRootCubature<M> {
         ensure_finite(self.s_next.as_slice(), Stage::Update, "updated square-root covariance S")?;
 
         // Diagnostics: S_innovation = S_zz·S_zzᵀ on the used rows.
-        for b in 0..mv {
-            for a in b..mv {
-                let v: f64 = (0..=b).map(|k| self.s_zz[(a, k)] * self.s_zz[(b, k)]).sum();
-                self.s_innovation[(a, b)] = v;
-                self.s_innovation[(b, a)] = v;
-            }
-        }
+        lower_gram(self.s_zz.as_slice(), m, mv, self.s_innovation.as_mut_slice(), m);
         self.core.innovation.record(
             z_hat,
             self.nu.as_slice(),
@@ -363,22 +357,7 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
 
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         let n = self.core.n();
-        let s = self.s.as_slice();
-        let p = out.as_mut_slice();
-        // S is lower triangular: column j of S·Sᵀ below the diagonal is
-        // Σ_{k ≤ j} S_jk·S[j.., k], axpys down contiguous columns; then mirrored.
-        for j in 0..n {
-            let col = &mut p[j * n + j..(j + 1) * n];
-            col.fill(0.0);
-            for k in 0..=j {
-                axpy(s[k * n + j], &s[k * n + j..(k + 1) * n], col);
-            }
-        }
-        for j in 0..n {
-            for i in j + 1..n {
-                p[i * n + j] = p[j * n + i];
-            }
-        }
+        lower_gram(self.s.as_slice(), n, n, out.as_mut_slice(), n);
     }
 
     fn variance(&self, i: usize) -> f64 {

@@ -98,6 +98,25 @@ pub(crate) fn tr_mul_add(
     }
 }
 
+/// `P = L·Lᵀ` for a lower-triangular `L` (`n × n`, leading dimension `ldl`),
+/// written in full to `out` (leading dimension `ldo`): column j below the
+/// diagonal is `Σ_{k ≤ j} L_jk·L[j.., k]`, axpys down contiguous columns, then
+/// mirrored.
+pub(crate) fn lower_gram(l: &[f64], ldl: usize, n: usize, out: &mut [f64], ldo: usize) {
+    for j in 0..n {
+        let col = &mut out[j * ldo + j..j * ldo + n];
+        col.fill(0.0);
+        for k in 0..=j {
+            axpy(l[k * ldl + j], &l[k * ldl + j..k * ldl + n], col);
+        }
+    }
+    for j in 0..n {
+        for i in j + 1..n {
+            out[i * ldo + j] = out[j * ldo + i];
+        }
+    }
+}
+
 /// Replaces a square matrix by its symmetric part, `(A + Aᵀ)/2`.
 pub(crate) fn symmetrize(a: &mut nalgebra::DMatrix<f64>) {
     let n = a.nrows();
@@ -107,5 +126,23 @@ pub(crate) fn symmetrize(a: &mut nalgebra::DMatrix<f64>) {
             a[(i, j)] = m;
             a[(j, i)] = m;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn lower_gram_is_l_times_l_transposed_on_a_leading_block() {
+        // A 4 × 4 lower-triangular L in the top-left of a 6 × 6 buffer, as S_zz on the used rows.
+        let full = DMatrix::from_fn(6, 6, |i, j| if j <= i { (i * 3 + j) as f64 - 4.5 } else { 0.0 });
+        let l = full.view((0, 0), (4, 4)).into_owned();
+        let mut out = DMatrix::from_element(6, 6, f64::NAN);
+        lower_gram(full.as_slice(), 6, 4, out.as_mut_slice(), 6);
+        let expected = &l * l.transpose();
+        assert_eq!(out.view((0, 0), (4, 4)).into_owned(), expected);
+        assert!(out.column(5).iter().all(|v| v.is_nan()), "entries outside the block are left alone");
     }
 }
