@@ -46,6 +46,6 @@ pub use filter::{
 pub use gaussian::Gaussian;
 pub use integrate::{Discretized, Rk4};
 pub use linalg::SymmetricEigen;
-pub use model::{Model, Observation, Process, VectorField};
+pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};

@@ -13,6 +13,7 @@ mod correction;
 mod covariance_root;
 mod ekf;
 mod innovation;
+mod point_blocks;
 mod sigma_point;
 mod sr_ckf;
 

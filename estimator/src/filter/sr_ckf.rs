@@ -16,11 +16,26 @@
 //! built transposed, one row per point, so that the QR runs down contiguous
 //! columns. `S_Q` is lower triangular (see [`Noise`]), so the predict compound
 //! `[S_Q, Y*]ᵀ` has an upper-triangular top block that the QR exploits.
+//!
+//! The update works on the symmetric point pairs. With `γ⁺ⱼ, γ⁻ⱼ` the columns
+//! of `γ` for `x̂⁻ ± √n·S·eⱼ`, let `D̃ = (γ⁺ − γ⁻)/√2` and `Σ̃ = (γ⁺ + γ⁻)/√2`
+//! (`m × n` each). Rotating each column pair by 45° is orthogonal, so it leaves
+//! every `Tria` unchanged in exact arithmetic, and it turns the update into
+//!
+//! ```text
+//!           M = Tria([Σ̃, S_R]),  S_zz = Tria([D̃, M]),  P_xz = S·D̃ᵀ
+//!           S = Tria([S − W·D̃, W·M])         (n + m columns instead of 2n + m)
+//! ```
+//!
+//! because `χ = [S, −S]/√2` turns into `[S, 0]`, and `[−W·Σ̃, W·S_R]` has the
+//! Gram matrix `W·(Σ̃·Σ̃ᵀ + R)·Wᵀ = (W·M)·(W·M)ᵀ`. The largest QR of the
+//! update has half the rows.
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, Core};
+use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
 #[cfg(target_arch = "x86_64")]
@@ -36,30 +51,37 @@ pub struct SquareRootCubature<M> {
     /// `S`, lower triangular with a non-negative diagonal.
     s: DMatrix<f64>,
     s_next: DMatrix<f64>,
-    /// Points (`n × 2n`).
-    xs: DMatrix<f64>,
-    /// Propagated points (`n × 2n`).
-    ys: DMatrix<f64>,
+    /// The `2n` cubature points.
+    xs: PointBlocks,
+    /// The propagated points.
+    ys: PointBlocks,
     /// `[S_Q, Y*]ᵀ` (`3n × n`, upper-triangular top).
     predict_compound: Tria,
-    /// `[χ − W·γ, W·S_R]ᵀ` (`(2n + m) × n`).
+    /// `[S − W·D̃, W·M]ᵀ` (`(n + m) × n`).
     update_compound: Tria,
-    /// Measurement points on the used rows (`m × 2n`).
-    zs: DMatrix<f64>,
-    z_point: DVector<f64>,
+    /// The measurement points.
+    zs: PointBlocks,
+    /// The used rows of `zs`, one after the other (`2n` values each, `m` rows).
+    z_rows: DVector<f64>,
+    /// For the models' point-by-point defaults on blocks (`2n + m`).
+    model_scratch: Vec<f64>,
     z_hat: DVector<f64>,
-    /// `γᵀ` (`2n × m`, first `mv` columns used).
-    gamma_t: DMatrix<f64>,
-    /// `[γ, S_R]ᵀ` (`(2n + m) × m`).
+    /// `D̃ᵀ = (γ⁺ − γ⁻)ᵀ/√2` (`n × m`, first `mv` columns used).
+    d_t: DMatrix<f64>,
+    /// `Σ̃ᵀ = (γ⁺ + γ⁻)ᵀ/√2` (`n × m`, first `mv` columns used).
+    sigma_t: DMatrix<f64>,
+    /// `[Σ̃, S_R,used]ᵀ` (`(n + m) × m`).
+    m_compound: Tria,
+    /// `M = Tria([Σ̃, S_R,used])` (`m × m`, top-left `mv × mv` used).
+    m_root: DMatrix<f64>,
+    /// `[D̃, M]ᵀ` (`(n + m) × m`).
     zz_compound: Tria,
     /// `S_zz` (`m × m`, top-left `mv × mv` used).
     s_zz: DMatrix<f64>,
-    /// `S_R` restricted to the used rows (`m × m`, top `mv` rows used).
-    s_r_used: DMatrix<f64>,
     /// `P_xz`, then the gain `W` (`n × m`, first `mv` columns used).
     gain: DMatrix<f64>,
-    /// `W·S_R,used` (`n × m`).
-    w_s_r: DMatrix<f64>,
+    /// `W·M` (`n × m`, first `mv` columns used).
+    w_m: DMatrix<f64>,
     nu: DVector<f64>,
     e: DVector<f64>,
     s_innovation: DMatrix<f64>,
@@ -74,19 +96,22 @@ impl<M: Model> SquareRootCubature<M> {
         let mut filter = Self {
             s: DMatrix::zeros(n, n),
             s_next: DMatrix::zeros(n, n),
-            xs: DMatrix::zeros(n, 2 * n),
-            ys: DMatrix::zeros(n, 2 * n),
+            xs: PointBlocks::new(n, 2 * n),
+            ys: PointBlocks::new(n, 2 * n),
             predict_compound: Tria::upper_on_top(3 * n, n),
-            update_compound: Tria::dense(2 * n + m, n),
-            zs: DMatrix::zeros(m, 2 * n),
-            z_point: DVector::zeros(m),
+            update_compound: Tria::dense(n + m, n),
+            zs: PointBlocks::new(m, 2 * n),
+            z_rows: DVector::zeros(2 * n * m),
+            model_scratch: vec![0.0; 2 * n + m],
             z_hat: DVector::zeros(m),
-            gamma_t: DMatrix::zeros(2 * n, m),
-            zz_compound: Tria::dense(2 * n + m, m),
+            d_t: DMatrix::zeros(n, m),
+            sigma_t: DMatrix::zeros(n, m),
+            m_compound: Tria::dense(n + m, m),
+            m_root: DMatrix::zeros(m, m),
+            zz_compound: Tria::dense(n + m, m),
             s_zz: DMatrix::zeros(m, m),
-            s_r_used: DMatrix::zeros(m, m),
             gain: DMatrix::zeros(n, m),
-            w_s_r: DMatrix::zeros(n, m),
+            w_m: DMatrix::zeros(n, m),
             nu: DVector::zeros(m),
             e: DVector::zeros(m),
             s_innovation: DMatrix::zeros(m, m),
@@ -115,20 +140,19 @@ impl<M: Model> SquareRootCubature<M> {
         Ok(())
     }
 
-    /// Spreads `xs = x̂ ± √n·S·eⱼ`.
+    /// Spreads `xs = x̂ ± √n·S·eⱼ` (points `j` and `n + j`); the padding holds `x̂`.
     #[inline(always)]
     fn spread(&mut self) {
         let n = self.core.n();
         let c = (n as f64).sqrt();
         let x = self.core.x.as_slice();
-        let (plus, minus) = self.xs.as_mut_slice().split_at_mut(n * n);
-        let columns = self.s.as_slice().chunks_exact(n).zip(plus.chunks_exact_mut(n).zip(minus.chunks_exact_mut(n)));
-        for (col, (p, m)) in columns {
-            for (((p, m), xi), si) in p.iter_mut().zip(m.iter_mut()).zip(x).zip(col) {
-                *p = xi + c * si;
-                *m = xi - c * si;
+        for (j, col) in self.s.as_slice().chunks_exact(n).enumerate() {
+            for (i, (&xi, &si)) in x.iter().zip(col).enumerate() {
+                self.xs.set(i, j, xi + c * si);
+                self.xs.set(i, n + j, xi - c * si);
             }
         }
+        self.xs.pad_with(x);
     }
 
     /// The time update (compiled once portable and once with AVX2, see `predict`).
@@ -138,30 +162,27 @@ impl<M: Model> SquareRootCubature<M> {
         self.spread();
         let n = self.core.n();
         let t = self.core.t;
-        let points = self.xs.as_slice().chunks_exact(n).zip(self.ys.as_mut_slice().chunks_exact_mut(n));
-        for (x, y) in points {
-            self.core.model.transition(t, dt, x, self.core.u.as_slice(), y);
+        let u = self.core.u.as_slice();
+        for (x, y) in self.xs.blocks().zip(self.ys.blocks_mut()) {
+            self.core.model.transition_block(t, dt, x, u, y, &mut self.model_scratch);
         }
-        ensure_finite(self.ys.as_slice(), Stage::Predict, "propagated cubature points")?;
-        let x_next = self.core.x_next.as_mut_slice();
-        x_next.fill(0.0);
+        // The padding holds φ(x̂), a value the model gives: checked with the rest.
+        ensure_finite(self.ys.values(), Stage::Predict, "propagated cubature points")?;
+        // Row r of x̂⁻, and column r of the transposed compound (row r of
+        // [S_Q, Y*]): S_Q's row r (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
         let w = 0.5 / n as f64;
-        for col in self.ys.as_slice().chunks_exact(n) {
-            axpy(w, col, x_next);
-        }
-        // Column r of the transposed compound (row r of [S_Q, Y*]): S_Q's row r
-        // (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
         let scale = w.sqrt();
-        let ys = self.ys.as_slice();
         let sq = self.core.noise.q_sqrt().as_slice();
-        for (r, &x_r) in x_next.iter().enumerate() {
+        for (r, x_r) in self.core.x_next.as_mut_slice().iter_mut().enumerate() {
             let col = self.predict_compound.column_mut(r);
             let (head, points) = col.split_at_mut(n);
+            self.ys.copy_component(r, points);
+            *x_r = points.iter().fold(0.0, |sum, y| sum + w * y);
+            for c in points {
+                *c = (*c - *x_r) * scale;
+            }
             for (k, c) in head[..=r].iter_mut().enumerate() {
                 *c = sq[k * n + r];
-            }
-            for (c, y) in points.iter_mut().zip(ys.chunks_exact(n)) {
-                *c = (y[r] - x_r) * scale;
             }
         }
         self.predict_compound.factor(n, self.s_next.as_mut_slice(), n);
@@ -182,63 +203,66 @@ impl<M: Model> SquareRootCubature<M> {
         }
         self.spread();
         let (n, m) = (self.core.n(), self.core.m());
-        let n_pts = 2 * n;
-        let scale = (0.5 / n as f64).sqrt();
         let rows = self.core.innovation.rows();
 
-        // Measurement points on the used rows (`zs`, one column per point), their mean ẑ, and γᵀ.
-        let points = self.xs.as_slice().chunks_exact(n).zip(self.zs.as_mut_slice().chunks_exact_mut(m));
-        for (x, z_used) in points {
-            let z_point = self.z_point.as_mut_slice();
-            self.core.model.observe(self.core.t, x, self.core.u.as_slice(), z_point);
-            for (zu, &row) in z_used.iter_mut().zip(rows) {
-                *zu = z_point[row];
-            }
+        // Measurement points, and the mean ẑ of the used rows.
+        let (t, u) = (self.core.t, self.core.u.as_slice());
+        for (x, z) in self.xs.blocks().zip(self.zs.blocks_mut()) {
+            self.core.model.observe_block(t, x, u, z, &mut self.model_scratch);
         }
-        let zs = self.zs.as_slice();
-        let used = zs.chunks_exact(m).flat_map(|z_used| &z_used[..mv]);
-        ensure_finite(used, Stage::Update, "measurement cubature points")?;
+        let z_rows = &mut self.z_rows.as_mut_slice()[..mv * 2 * n];
+        for (z_row, &row) in z_rows.chunks_exact_mut(2 * n).zip(rows) {
+            self.zs.copy_component(row, z_row);
+        }
+        ensure_finite(&*z_rows, Stage::Update, "measurement cubature points")?;
         let z_hat = &mut self.z_hat.as_mut_slice()[..mv];
-        z_hat.fill(0.0);
-        for z_used in zs.chunks_exact(m) {
-            axpy(1.0 / n_pts as f64, &z_used[..mv], z_hat);
+        let w = 0.5 / n as f64;
+        for (zh, z_row) in z_hat.iter_mut().zip(z_rows.chunks_exact(2 * n)) {
+            *zh = z_row.iter().fold(0.0, |sum, z| sum + w * z);
         }
-        let gamma_t = self.gamma_t.as_mut_slice();
-        for (a, (g, zh)) in gamma_t.chunks_exact_mut(n_pts).zip(z_hat.iter()).enumerate() {
-            for (gi, z_used) in g.iter_mut().zip(zs.chunks_exact(m)) {
-                *gi = (z_used[a] - zh) * scale;
-            }
-        }
-        let gamma_t = self.gamma_t.as_slice();
 
-        // S_R on the used rows, and S_zz = Tria([γ, S_R]).
-        let s_r = self.core.noise.r_sqrt();
-        for k in 0..m {
-            for (a, &row) in rows.iter().enumerate() {
-                self.s_r_used[(a, k)] = s_r[(row, k)];
+        // D̃ = (γ⁺ − γ⁻)/√2 and Σ̃ = (γ⁺ + γ⁻)/√2, one column of Dᵀ-shape per used row.
+        let c = 0.5 / (n as f64).sqrt();
+        let (d_t, sigma_t) = (self.d_t.as_mut_slice(), self.sigma_t.as_mut_slice());
+        let columns =
+            d_t.chunks_exact_mut(n).zip(sigma_t.chunks_exact_mut(n)).zip(z_hat.iter().zip(z_rows.chunks_exact(2 * n)));
+        for ((d, sg), (&zh, z_row)) in columns {
+            let (plus, minus) = z_row.split_at(n);
+            for (((d, sg), &zp), &zm) in d.iter_mut().zip(sg.iter_mut()).zip(plus).zip(minus) {
+                *d = (zp - zm) * c;
+                *sg = ((zp - zh) + (zm - zh)) * c;
             }
         }
+        let (d_t, sigma_t) = (self.d_t.as_slice(), self.sigma_t.as_slice());
+
+        // M = Tria([Σ̃, S_R,used]), then S_zz = Tria([D̃, M]): S_zz·S_zzᵀ = D̃·D̃ᵀ + Σ̃·Σ̃ᵀ + R = P_zz.
+        let s_r = self.core.noise.r_sqrt();
+        for (a, &row) in rows.iter().enumerate() {
+            let col = self.m_compound.column_mut(a);
+            col[..n].copy_from_slice(&sigma_t[a * n..(a + 1) * n]);
+            for (k, v) in col[n..].iter_mut().enumerate() {
+                *v = s_r[(row, k)];
+            }
+        }
+        self.m_compound.factor(mv, self.m_root.as_mut_slice(), m);
+        let m_root = self.m_root.as_slice();
         for a in 0..mv {
             let col = self.zz_compound.column_mut(a);
-            col[..n_pts].copy_from_slice(&gamma_t[a * n_pts..(a + 1) * n_pts]);
-            for k in 0..m {
-                col[n_pts + k] = self.s_r_used[(a, k)];
+            col[..n].copy_from_slice(&d_t[a * n..(a + 1) * n]);
+            for (k, v) in col[n..].iter_mut().enumerate() {
+                *v = if k < mv { m_root[k * m + a] } else { 0.0 };
             }
         }
         self.zz_compound.factor(mv, self.s_zz.as_mut_slice(), m);
 
-        // P_xz, then W = P_xz·S_zz⁻ᵀ·S_zz⁻¹ by two triangular solves from the
-        // right. For cubature points χ = [Xᵢ − x̂⁻]/√(2n) = [S, −S]/√2, so
-        // P_xz = χ·γᵀ = S·Dᵀ/√2 with D = γ[:, ..n] − γ[:, n..]: a triangular
-        // product, a quarter of the work of χ·γᵀ.
+        // P_xz = χ·γᵀ = S·D̃ᵀ (the points are x̂⁻ ± √n·S·eⱼ): a triangular
+        // product. Then W = P_xz·S_zz⁻ᵀ·S_zz⁻¹ by two triangular solves from the right.
         let s = self.s.as_slice();
         let gain = self.gain.as_mut_slice();
-        for (a, p_a) in gain.chunks_exact_mut(n).take(mv).enumerate() {
-            let g = &gamma_t[a * n_pts..(a + 1) * n_pts];
+        for (p_a, d) in gain.chunks_exact_mut(n).zip(d_t.chunks_exact(n)).take(mv) {
             p_a.fill(0.0);
-            for j in 0..n {
-                let d = (g[j] - g[n + j]) * std::f64::consts::FRAC_1_SQRT_2;
-                axpy(d, &s[j * n + j..(j + 1) * n], &mut p_a[j..]);
+            for (j, &d_j) in d.iter().enumerate() {
+                axpy(d_j, &s[j * n + j..(j + 1) * n], &mut p_a[j..]);
             }
         }
         let s_zz = self.s_zz.as_slice();
@@ -264,35 +288,31 @@ impl<M: Model> SquareRootCubature<M> {
             axpy(nu_a, w_a, x_next);
         }
 
-        // W·S_R,used, column by column (S_R is lower triangular, often diagonal:
-        // its zeros are skipped).
-        let w_s_r = self.w_s_r.as_mut_slice();
-        for (k, out) in w_s_r.chunks_exact_mut(n).enumerate() {
+        // W·M (M lower triangular), column by column.
+        let w_m = self.w_m.as_mut_slice();
+        for (k, out) in w_m.chunks_exact_mut(n).enumerate() {
             out.fill(0.0);
-            for (a, w_a) in gain.chunks_exact(n).take(mv).enumerate() {
-                let r = self.s_r_used[(a, k)];
-                if r != 0.0 {
-                    axpy(r, w_a, out);
-                }
+            for (a, w_a) in gain.chunks_exact(n).enumerate().take(mv).skip(k) {
+                axpy(m_root[k * m + a], w_a, out);
             }
         }
-        let w_s_r = self.w_s_r.as_slice();
+        let w_m = self.w_m.as_slice();
 
-        // S = Tria([χ − W·γ, W·S_R]): column q of the transposed compound is
-        // χ's row q minus γᵀ·(W's row q), then (W·S_R,used)'s row q.
+        // S = Tria([S − W·D̃, W·M]). The SRCKF's compound [χ − W·γ, W·S_R] with
+        // each pair of columns (j, n + j) rotated by 45°, which leaves A·Aᵀ
+        // unchanged: the differences give S − W·D̃, the sums −W·Σ̃, and
+        // [−W·Σ̃, W·S_R] has the same Gram matrix as W·M. 2n + m columns become n + m.
+        // Column q of the transposed compound is row q of both blocks.
         for q in 0..n {
-            let (top, bottom) = self.update_compound.column_mut(q).split_at_mut(n_pts);
-            let (plus, minus) = top.split_at_mut(n);
-            for (j, (p, mi)) in plus.iter_mut().zip(minus.iter_mut()).enumerate() {
-                let v = s[j * n + q] * std::f64::consts::FRAC_1_SQRT_2;
-                *p = v;
-                *mi = -v;
+            let (top, bottom) = self.update_compound.column_mut(q).split_at_mut(n);
+            for (j, t) in top.iter_mut().enumerate() {
+                *t = s[j * n + q];
             }
-            for a in 0..mv {
-                axpy(-gain[a * n + q], &gamma_t[a * n_pts..(a + 1) * n_pts], top);
+            for (a, d) in d_t.chunks_exact(n).enumerate().take(mv) {
+                axpy(-gain[a * n + q], d, top);
             }
             for (k, v) in bottom.iter_mut().enumerate() {
-                *v = w_s_r[k * n + q];
+                *v = if k < mv { w_m[k * n + q] } else { 0.0 };
             }
         }
         self.update_compound.factor(n, self.s_next.as_mut_slice(), n);

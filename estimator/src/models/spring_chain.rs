@@ -11,7 +11,7 @@
 //! z     [z̈ at masses 1, 2, 4, 5, 7, 8, 10]
 //! ```
 
-use crate::model::{Observation, VectorField};
+use crate::model::{Component, Observation, VectorField};
 use crate::models::PiecewiseLinear;
 
 const MASSES: usize = 10;
@@ -34,23 +34,59 @@ impl Default for SpringChainForces {
 }
 
 impl SpringChainForces {
-    fn accelerations(&self, x: &[f64], out: &mut [f64]) {
+    /// The force in element i, which joins mass i−1 (or the ground) to mass i.
+    #[inline(always)]
+    fn element<const L: usize>(&self, z: &[[f64; L]], v: &[[f64; L]], i: usize) -> [f64; L] {
+        let (mut dz, mut dv) = (z[i], v[i]);
+        if i > 0 {
+            for l in 0..L {
+                dz[l] -= z[i - 1][l];
+                dv[l] -= v[i - 1][l];
+            }
+        }
+        let mut force = self.damper.force_lanes(&dv);
+        for l in 0..L {
+            force[l] += self.stiffness * dz[l];
+        }
+        force
+    }
+
+    /// The accelerations `z̈`, lane by lane: `L = 1` for one point, or a
+    /// block of points with one lane each (the same arithmetic, vectorised).
+    /// No closures: they would be compiled apart, without the caller's AVX2.
+    #[inline(always)]
+    fn accelerations<const L: usize>(&self, x: &[[f64; L]], out: &mut [[f64; L]]) {
         let (z, v, f) = (&x[..MASSES], &x[MASSES..2 * MASSES], &x[2 * MASSES..]);
-        let element = |i: usize| -> f64 {
-            // Element i joins mass i−1 (or the ground) to mass i.
-            let (dz, dv) = if i == 0 { (z[0], v[0]) } else { (z[i] - z[i - 1], v[i] - v[i - 1]) };
-            self.stiffness * dz + self.damper.force(dv)
-        };
         // Multiplied by 1/m: a division per mass would cost more than the rest of the law.
         let inv_mass = 1.0 / self.mass;
-        let mut below = element(0);
+        let mut below = self.element(z, v, 0);
         for (i, acc) in out.iter_mut().enumerate().take(MASSES) {
-            let above = if i + 1 < MASSES { element(i + 1) } else { 0.0 };
-            *acc = (above - below) * inv_mass;
+            let above = if i + 1 < MASSES { self.element(z, v, i + 1) } else { [0.0; L] };
+            for l in 0..L {
+                acc[l] = (above[l] - below[l]) * inv_mass;
+            }
             below = above;
         }
         for (k, &i) in FORCES.iter().enumerate() {
-            out[i] += f[k] * inv_mass;
+            for l in 0..L {
+                out[i][l] += f[k][l] * inv_mass;
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn derivative_lanes<const L: usize>(&self, x: &[[f64; L]], dxdt: &mut [[f64; L]]) {
+        dxdt[..MASSES].copy_from_slice(&x[MASSES..2 * MASSES]);
+        self.accelerations(x, &mut dxdt[MASSES..2 * MASSES]);
+        dxdt[2 * MASSES..].fill([0.0; L]);
+    }
+
+    #[inline(always)]
+    fn observe_lanes<const L: usize>(&self, x: &[[f64; L]], z: &mut [[f64; L]]) {
+        let mut acc = [[0.0; L]; MASSES];
+        self.accelerations(x, &mut acc);
+        for (k, &i) in SENSORS.iter().enumerate() {
+            z[k] = acc[i];
         }
     }
 }
@@ -61,9 +97,12 @@ impl VectorField for SpringChainForces {
     }
 
     fn derivative(&self, _t: f64, x: &[f64], _u: &[f64], dxdt: &mut [f64]) {
-        dxdt[..MASSES].copy_from_slice(&x[MASSES..2 * MASSES]);
-        self.accelerations(x, &mut dxdt[MASSES..2 * MASSES]);
-        dxdt[2 * MASSES..].fill(0.0);
+        self.derivative_lanes::<1>(x.as_chunks().0, dxdt.as_chunks_mut().0);
+    }
+
+    #[inline(always)]
+    fn derivative_block(&self, _t: f64, x: &[Component], _u: &[f64], dxdt: &mut [Component], _scratch: &mut [f64]) {
+        self.derivative_lanes(x, dxdt);
     }
 }
 
@@ -73,10 +112,11 @@ impl Observation for SpringChainForces {
     }
 
     fn observe(&self, _t: f64, x: &[f64], _u: &[f64], z: &mut [f64]) {
-        let mut acc = [0.0; MASSES];
-        self.accelerations(x, &mut acc);
-        for (k, &i) in SENSORS.iter().enumerate() {
-            z[k] = acc[i];
-        }
+        self.observe_lanes::<1>(x.as_chunks().0, z.as_chunks_mut().0);
+    }
+
+    #[inline(always)]
+    fn observe_block(&self, _t: f64, x: &[Component], _u: &[f64], z: &mut [Component], _scratch: &mut [f64]) {
+        self.observe_lanes(x, z);
     }
 }

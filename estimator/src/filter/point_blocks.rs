@@ -1,0 +1,95 @@
+//! Cubature or sigma points stored for the batched model calls (see
+//! `model.rs`): block `b` holds points `8b … 8b + 7` as `dim` rows of one
+//! [`Component`] each, so a block is passed to the model as it lies.
+//!
+//! The lanes after the last point are padding. They hold a copy of a real
+//! point (the mean), so that a model never sees made-up states and whatever
+//! it returns for them is a value it would return anyway.
+
+use std::slice::{ChunksExact, ChunksExactMut};
+
+use crate::model::{Component, BLOCK_POINTS};
+
+#[derive(Debug, Clone)]
+pub(crate) struct PointBlocks {
+    dim: usize,
+    count: usize,
+    data: Vec<Component>,
+}
+
+impl PointBlocks {
+    /// `count` points of dimension `dim`, all zero.
+    pub(crate) fn new(dim: usize, count: usize) -> Self {
+        Self { dim, count, data: vec![[0.0; BLOCK_POINTS]; count.div_ceil(BLOCK_POINTS) * dim] }
+    }
+
+    /// The blocks, `dim` rows each.
+    pub(crate) fn blocks(&self) -> ChunksExact<'_, Component> {
+        self.data.chunks_exact(self.dim.max(1))
+    }
+
+    /// The blocks, to be written.
+    pub(crate) fn blocks_mut(&mut self) -> ChunksExactMut<'_, Component> {
+        self.data.chunks_exact_mut(self.dim.max(1))
+    }
+
+    /// Sets component `i` of point `p`.
+    #[inline(always)]
+    pub(crate) fn set(&mut self, i: usize, p: usize, value: f64) {
+        self.data[(p / BLOCK_POINTS) * self.dim + i][p % BLOCK_POINTS] = value;
+    }
+
+    /// Copies component `i` at every point, in point order, into `out` (`count` values).
+    #[inline(always)]
+    pub(crate) fn copy_component(&self, i: usize, out: &mut [f64]) {
+        debug_assert_eq!(out.len(), self.count);
+        for (chunk, block) in out.chunks_mut(BLOCK_POINTS).zip(self.blocks()) {
+            chunk.copy_from_slice(&block[i][..chunk.len()]);
+        }
+    }
+
+    /// Copies `point` into the padding lanes.
+    pub(crate) fn pad_with(&mut self, point: &[f64]) {
+        let (first_pad, dim) = (self.count % BLOCK_POINTS, self.dim);
+        if first_pad == 0 || dim == 0 {
+            return;
+        }
+        let start = self.data.len() - dim;
+        let last = &mut self.data[start..];
+        for (component, &value) in last.iter_mut().zip(point) {
+            component[first_pad..].fill(value);
+        }
+    }
+
+    /// Every value, padding included.
+    pub(crate) fn values(&self) -> &[f64] {
+        self.data.as_flattened()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_round_trip_and_padding_holds_the_given_point() {
+        let (dim, count) = (3, 11);
+        let mut points = PointBlocks::new(dim, count);
+        for p in 0..count {
+            for i in 0..dim {
+                points.set(i, p, (10 * p + i) as f64);
+            }
+        }
+        points.pad_with(&[-1.0, -2.0, -3.0]);
+        for i in 0..dim {
+            let expected: Vec<f64> = (0..count).map(|p| (10 * p + i) as f64).collect();
+            let mut component = vec![0.0; count];
+            points.copy_component(i, &mut component);
+            assert_eq!(component, expected);
+        }
+        let blocks: Vec<&[Component]> = points.blocks().collect();
+        assert_eq!(blocks.len(), 2);
+        assert_eq!(blocks[1][2], [82.0, 92.0, 102.0, -3.0, -3.0, -3.0, -3.0, -3.0]);
+        assert_eq!(points.values().len(), 2 * dim * BLOCK_POINTS);
+    }
+}

@@ -1,0 +1,58 @@
+//! The batched model calls give the point-by-point numbers bit for bit, so a
+//! filter's result does not depend on whether a model overrides them.
+
+use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces};
+use estimator::{Component, Discretized, Observation, Process, VectorField, BLOCK_POINTS};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// `BLOCK_POINTS` points of dimension `n`, spread wide enough to cross the dampers' breakpoints.
+fn block(n: usize, seed: u64) -> Vec<Component> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..n).map(|_| std::array::from_fn(|_| rng.random_range(-0.5..0.5))).collect()
+}
+
+fn point(block: &[Component], p: usize) -> Vec<f64> {
+    block.iter().map(|c| c[p]).collect()
+}
+
+fn assert_block_equals_pointwise<M: Process + Observation>(mut model: M, what: &str) {
+    let (n, m) = (model.state_dim(), model.measurement_dim());
+    let mut scratch = vec![0.0; 2 * n + m];
+    for seed in 0..20 {
+        let x = block(n, seed);
+        let (mut x_next, mut z) = (vec![[0.0; BLOCK_POINTS]; n], vec![[0.0; BLOCK_POINTS]; m]);
+        model.transition_block(0.3, 0.005, &x, &[], &mut x_next, &mut scratch);
+        model.observe_block(0.3, &x, &[], &mut z, &mut scratch);
+        for p in 0..BLOCK_POINTS {
+            let (mut x1, mut z1) = (vec![0.0; n], vec![0.0; m]);
+            model.transition(0.3, 0.005, &point(&x, p), &[], &mut x1);
+            model.observe(0.3, &point(&x, p), &[], &mut z1);
+            let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&point(&x_next, p)), bits(&x1), "{what}: transition of point {p}, seed {seed}");
+            assert_eq!(bits(&point(&z, p)), bits(&z1), "{what}: observation of point {p}, seed {seed}");
+        }
+    }
+}
+
+#[test]
+fn the_chain_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
+    assert_block_equals_pointwise(Discretized::rk4(SpringChainForces::default(), 1), "chain, 1 RK4 step");
+    assert_block_equals_pointwise(Discretized::rk4(SpringChainForces::default(), 3), "chain, 3 RK4 steps");
+}
+
+#[test]
+fn the_default_block_methods_equal_the_point_methods_bit_for_bit() {
+    // The S1 model has no block methods of its own: the defaults run.
+    let model = Oscillator2DofLoad::new(Oscillator2Dof::damping_nonlinear());
+    let mut scratch = vec![0.0; 12];
+    let x = block(6, 99);
+    let mut d = vec![[0.0; BLOCK_POINTS]; 6];
+    model.derivative_block(0.0, &x, &[], &mut d, &mut scratch);
+    for p in 0..BLOCK_POINTS {
+        let mut d1 = vec![0.0; 6];
+        model.derivative(0.0, &point(&x, p), &[], &mut d1);
+        assert_eq!(point(&d, p), d1, "point {p}");
+    }
+    assert_block_equals_pointwise(Discretized::rk4(model, 2), "S1 damping model");
+}
