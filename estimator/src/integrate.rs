@@ -42,11 +42,13 @@ impl<const L: usize> Stages<L> {
         f.derivative_lanes(t + 0.5 * h, &self.stage, u, &mut self.k3, scratch);
         stage(&mut self.stage, x, h, &self.k3);
         f.derivative_lanes(t + h, &self.stage, u, &mut self.k4, scratch);
-        let rows = x_next.iter_mut().zip(x).zip(self.k1.iter().zip(&self.k2).zip(self.k3.iter().zip(&self.k4)));
-        for ((out, x), ((k1, k2), (k3, k4))) in rows {
-            for l in 0..L {
-                out[l] = x[l] + h / 6.0 * (k1[l] + 2.0 * k2[l] + 2.0 * k3[l] + k4[l]);
-            }
+        // Flat slices of equal length: one loop the compiler vectorises.
+        let len = x_next.len() * L;
+        let (out, x) = (&mut x_next.as_flattened_mut()[..len], &x.as_flattened()[..len]);
+        let (k1, k2) = (&self.k1.as_flattened()[..len], &self.k2.as_flattened()[..len]);
+        let (k3, k4) = (&self.k3.as_flattened()[..len], &self.k4.as_flattened()[..len]);
+        for i in 0..len {
+            out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
     }
 }
@@ -75,10 +77,10 @@ impl<F: VectorField + ?Sized> Lanewise<BLOCK_POINTS> for F {
 /// `out = x + a·k`.
 #[inline(always)]
 fn stage<const L: usize>(out: &mut [[f64; L]], x: &[[f64; L]], a: f64, k: &[[f64; L]]) {
-    for ((o, x), k) in out.iter_mut().zip(x).zip(k) {
-        for l in 0..L {
-            o[l] = x[l] + a * k[l];
-        }
+    let len = out.len() * L;
+    let (out, x, k) = (&mut out.as_flattened_mut()[..len], &x.as_flattened()[..len], &k.as_flattened()[..len]);
+    for i in 0..len {
+        out[i] = x[i] + a * k[i];
     }
 }
 
