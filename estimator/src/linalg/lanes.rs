@@ -29,6 +29,10 @@ pub(crate) trait Lanes: Copy {
     fn product(self, a: &[f64], b: &[f64]) -> Chunk;
     /// `x[i] −= c·v[i]`.
     fn sub_scaled(self, x: &mut [f64], c: f64, v: &[f64]);
+    /// Per-lane sums of `vₖ[i]·aᵦ[i]` for two vectors and two columns, `[k][b]`.
+    fn products_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2];
+    /// `x[i] = (x[i] − c₀·v₀[i]) − c₁·v₁[i]`.
+    fn sub_scaled_2(self, x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]);
 }
 
 /// The lanes' sum in a fixed (pairwise) order.
@@ -63,6 +67,21 @@ impl Lanes for Portable {
         for (x, v) in x.chunks_exact_mut(LANES).zip(v.chunks_exact(LANES)) {
             for l in 0..LANES {
                 x[l] -= c * v[l];
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn products_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2] {
+        [[self.product(v[0], a[0]), self.product(v[0], a[1])], [self.product(v[1], a[0]), self.product(v[1], a[1])]]
+    }
+
+    #[inline(always)]
+    fn sub_scaled_2(self, x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]) {
+        let chunks = x.chunks_exact_mut(LANES).zip(v[0].chunks_exact(LANES).zip(v[1].chunks_exact(LANES)));
+        for (x, (v0, v1)) in chunks {
+            for l in 0..LANES {
+                x[l] = (x[l] - c[0] * v0[l]) - c[1] * v1[l];
             }
         }
     }
@@ -109,6 +128,18 @@ mod avx2 {
         fn sub_scaled(self, x: &mut [f64], c: f64, v: &[f64]) {
             // SAFETY: as above.
             unsafe { sub_scaled(x, c, v) }
+        }
+
+        #[inline(always)]
+        fn products_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2] {
+            // SAFETY: as above.
+            unsafe { products_2x2(v, a) }
+        }
+
+        #[inline(always)]
+        fn sub_scaled_2(self, x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]) {
+            // SAFETY: as above.
+            unsafe { sub_scaled_2(x, c, v) }
         }
     }
 
@@ -172,6 +203,39 @@ mod avx2 {
 
     #[inline]
     #[target_feature(enable = "avx2")]
+    fn products_2x2(v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2] {
+        let zero = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        let mut acc = [[zero; 2]; 2];
+        let chunks = v[0].chunks_exact(LANES).zip(v[1].chunks_exact(LANES));
+        let chunks = chunks.zip(a[0].chunks_exact(LANES).zip(a[1].chunks_exact(LANES)));
+        for ((v0, v1), (a0, a1)) in chunks {
+            let (v0, v1, a0, a1) = (load(v0), load(v1), load(a0), load(a1));
+            acc[0][0] = mul_add(acc[0][0], v0, a0);
+            acc[0][1] = mul_add(acc[0][1], v0, a1);
+            acc[1][0] = mul_add(acc[1][0], v1, a0);
+            acc[1][1] = mul_add(acc[1][1], v1, a1);
+        }
+        let mut out = [[[0.0; LANES]; 2]; 2];
+        for (out, acc) in out.iter_mut().zip(&acc) {
+            *out = [to_chunk(acc[0]), to_chunk(acc[1])];
+        }
+        out
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn sub_scaled_2(x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]) {
+        let (c0, c1) = (_mm256_set1_pd(c[0]), _mm256_set1_pd(c[1]));
+        let chunks = x.chunks_exact_mut(LANES).zip(v[0].chunks_exact(LANES).zip(v[1].chunks_exact(LANES)));
+        for (x, (v0, v1)) in chunks {
+            let (xv, v0, v1) = (load(x), load(v0), load(v1));
+            let once = (_mm256_sub_pd(xv.0, _mm256_mul_pd(c0, v0.0)), _mm256_sub_pd(xv.1, _mm256_mul_pd(c0, v0.1)));
+            store(x, (_mm256_sub_pd(once.0, _mm256_mul_pd(c1, v1.0)), _mm256_sub_pd(once.1, _mm256_mul_pd(c1, v1.1))));
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
     fn sub_scaled(x: &mut [f64], c: f64, v: &[f64]) {
         let c = _mm256_set1_pd(c);
         for (x, v) in x.chunks_exact_mut(LANES).zip(v.chunks_exact(LANES)) {
@@ -206,6 +270,12 @@ mod tests {
             let (mut x1, mut x2) = (cols[1].clone(), cols[1].clone());
             avx2.sub_scaled(&mut x1, 0.37, &v);
             Portable.sub_scaled(&mut x2, 0.37, &v);
+            assert_eq!(x1, x2);
+            let (v2, a2) = ([v.as_slice(), c[1]], [c[2], c[3]]);
+            assert_eq!(avx2.products_2x2(v2, a2), Portable.products_2x2(v2, a2));
+            let (mut x1, mut x2) = (cols[0].clone(), cols[0].clone());
+            avx2.sub_scaled_2(&mut x1, [0.37, -1.3], v2);
+            Portable.sub_scaled_2(&mut x2, [0.37, -1.3], v2);
             assert_eq!(x1, x2);
         }
     }

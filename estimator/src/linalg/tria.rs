@@ -31,8 +31,9 @@ pub(crate) struct Tria {
     /// Leading dimension: `top` plus the dense rows rounded up to [`LANES`].
     ld: usize,
     at: Vec<f64>,
-    /// The reflector's dense part, zero outside the rows it acts on.
+    /// The dense parts of a pair of reflectors, zero outside the rows they act on.
     v: Vec<f64>,
+    v2: Vec<f64>,
     /// `vᵀ·aⱼ` for the trailing columns.
     w: Vec<f64>,
 }
@@ -52,7 +53,7 @@ impl Tria {
 
     fn with_top(top: usize, rows: usize, cols: usize) -> Self {
         let ld = top + (rows - top).div_ceil(LANES) * LANES;
-        Self { rows, cols, top, ld, at: vec![0.0; ld * cols], v: vec![0.0; ld], w: vec![0.0; cols] }
+        Self { rows, cols, top, ld, at: vec![0.0; ld * cols], v: vec![0.0; ld], v2: vec![0.0; ld], w: vec![0.0; cols] }
     }
 
     /// Column `j` of `Aᵀ` (row `j` of `A`), `rows` entries, to be filled.
@@ -93,6 +94,11 @@ impl Tria {
     }
 
     /// Householder QR of `Aᵀ` in place: `R` ends up in the head rows.
+    ///
+    /// The reflectors go in pairs: reflector `k` is formed and applied to
+    /// column `k + 1`, reflector `k + 1` is formed from it, and the two are
+    /// applied together to the columns after (`apply_pair`), so each of those
+    /// is read and written once per pair instead of once per reflector.
     #[inline(always)]
     fn householder<L: Lanes>(&mut self, lanes: L, cols: usize) {
         let (rows, top, ld) = (self.rows, self.top, self.ld);
@@ -101,38 +107,25 @@ impl Tria {
         for col in self.at.chunks_exact_mut(ld).take(cols) {
             col[rows..].fill(0.0);
         }
-        for k in 0..rows.min(cols) {
-            // The reflector acts on row k and on the dense rows `first..rows`,
-            // run over from the chunk boundary `start` (zeros in between).
-            let first = top.max(k + 1);
+        let steps = rows.min(cols);
+        let mut k = 0;
+        while k < steps {
+            // The reflectors act on their head row and on the dense rows
+            // below it, run over from the chunk boundary `start`.
             let start = if top > 0 { top } else { k - k % LANES };
             let (head, tail) = self.at.split_at_mut((k + 1) * ld);
-            let col_k = &mut head[k * ld..];
-            let v = &mut self.v[start..];
-            v.fill(0.0);
-            v[first - start..rows - start].copy_from_slice(&col_k[first..rows]);
-            let x0 = col_k[k];
-            let norm2 = x0 * x0 + sum_lanes(&lanes.product(v, v));
-            if norm2 == 0.0 {
-                continue;
+            let v1 = &mut self.v[start..];
+            let first = reflector(lanes, &mut head[k * ld..], v1, k, top.max(k + 1), start, rows);
+            if k + 1 == steps {
+                apply(lanes, &first, v1, start, ld, &mut tail[..(cols - k - 1) * ld], &mut self.w);
+                break;
             }
-            let norm = norm2.sqrt();
-            let alpha = if x0 >= 0.0 { -norm } else { norm };
-            // v = x − α·e₁, so vᵀv = 2‖x‖(‖x‖ + |x₀|): no cancellation.
-            let v0 = x0 - alpha;
-            let tau = 1.0 / (norm * (norm + x0.abs()));
-            col_k[k] = alpha;
-
-            let trailing = cols - k - 1;
-            let w = &mut self.w[..trailing];
-            products(lanes, v, v0, k, start, ld, &tail[..trailing * ld], w);
-            for (col, &wj) in tail.chunks_exact_mut(ld).zip(w.iter()) {
-                if wj != 0.0 {
-                    let c = tau * wj;
-                    col[k] -= c * v0;
-                    lanes.sub_scaled(&mut col[start..], c, v);
-                }
-            }
+            let (next, rest) = tail.split_at_mut(ld);
+            apply(lanes, &first, v1, start, ld, next, &mut self.w);
+            let v2 = &mut self.v2[start..];
+            let second = reflector(lanes, next, v2, k + 1, top.max(k + 2), start, rows);
+            apply_pair(lanes, [&first, &second], [v1, v2], start, ld, &mut rest[..(cols - k - 2) * ld]);
+            k += 2;
         }
     }
 
@@ -154,22 +147,120 @@ impl Tria {
     }
 }
 
-/// `wⱼ = v₀·a_kj + v·aⱼ[start..]` for every column `aⱼ` of `columns`
-/// (leading dimension `ld`), [`COLUMN_BLOCK`] columns per pass over `v`.
-#[allow(clippy::too_many_arguments)]
+/// `H = I − τ·u·uᵀ`, with `u = v₀·e_k + v`: a head entry in row `k` and a
+/// dense part `v` (kept by the caller from row `start`, zero outside the rows
+/// it acts on). `τ = 0` is the identity.
+struct Reflector {
+    k: usize,
+    v0: f64,
+    tau: f64,
+}
+
+/// Forms the reflector that zeroes `col` (a column of `Aᵀ`) in rows `first..rows`
+/// and writes `α = ∓‖x‖` to its row `k`; `v` (from row `start`) receives the dense part.
 #[inline(always)]
-fn products<L: Lanes>(lanes: L, v: &[f64], v0: f64, k: usize, start: usize, ld: usize, columns: &[f64], w: &mut [f64]) {
+fn reflector<L: Lanes>(
+    lanes: L,
+    col: &mut [f64],
+    v: &mut [f64],
+    k: usize,
+    first: usize,
+    start: usize,
+    rows: usize,
+) -> Reflector {
+    v.fill(0.0);
+    v[first - start..rows - start].copy_from_slice(&col[first..rows]);
+    let x0 = col[k];
+    let norm2 = x0 * x0 + sum_lanes(&lanes.product(v, v));
+    if norm2 == 0.0 {
+        return Reflector { k, v0: 0.0, tau: 0.0 };
+    }
+    let norm = norm2.sqrt();
+    let alpha = if x0 >= 0.0 { -norm } else { norm };
+    col[k] = alpha;
+    // u = x − α·e_k, so uᵀu = 2‖x‖(‖x‖ + |x₀|): no cancellation.
+    Reflector { k, v0: x0 - alpha, tau: 1.0 / (norm * (norm + x0.abs())) }
+}
+
+/// Applies `H` to every column of `columns` (leading dimension `ld`):
+/// `aⱼ −= τ·(uᵀaⱼ)·u`, with the products formed [`COLUMN_BLOCK`] columns per pass over `v`.
+#[inline(always)]
+fn apply<L: Lanes>(lanes: L, h: &Reflector, v: &[f64], start: usize, ld: usize, columns: &mut [f64], w: &mut [f64]) {
+    if h.tau == 0.0 {
+        return;
+    }
+    let w = &mut w[..columns.len() / ld];
     let mut blocks = columns.chunks_exact(COLUMN_BLOCK * ld);
     let mut out = w.chunks_exact_mut(COLUMN_BLOCK);
     for (block, wb) in (&mut blocks).zip(&mut out) {
         let c: [&[f64]; COLUMN_BLOCK] = std::array::from_fn(|b| &block[b * ld + start..(b + 1) * ld]);
         let acc = lanes.products(v, c);
         for (b, wj) in wb.iter_mut().enumerate() {
-            *wj = v0 * block[b * ld + k] + sum_lanes(&acc[b]);
+            *wj = h.v0 * block[b * ld + h.k] + sum_lanes(&acc[b]);
         }
     }
     for (col, wj) in blocks.remainder().chunks_exact(ld).zip(out.into_remainder()) {
-        *wj = v0 * col[k] + sum_lanes(&lanes.product(v, &col[start..]));
+        *wj = h.v0 * col[h.k] + sum_lanes(&lanes.product(v, &col[start..]));
+    }
+    for (col, &wj) in columns.chunks_exact_mut(ld).zip(w.iter()) {
+        if wj != 0.0 {
+            let c = h.tau * wj;
+            col[h.k] -= c * h.v0;
+            lanes.sub_scaled(&mut col[start..], c, v);
+        }
+    }
+}
+
+/// Applies `H₂·H₁` to every column of `columns`, reading and writing each once:
+///
+/// ```text
+/// c₁ = τ₁·u₁ᵀa,   c₂ = τ₂·(u₂ᵀa − c₁·u₂ᵀu₁),   a ← a − c₁·u₁ − c₂·u₂
+/// ```
+///
+/// (`u₂ᵀ(a − c₁·u₁)` expanded). `u₂`'s head row is `k₁ + 1`, where `u₁` may
+/// have a dense entry; `u₁`'s head row `k₁` is outside `u₂`.
+#[inline(always)]
+fn apply_pair<L: Lanes>(lanes: L, h: [&Reflector; 2], v: [&[f64]; 2], start: usize, ld: usize, columns: &mut [f64]) {
+    if h[0].tau == 0.0 && h[1].tau == 0.0 {
+        return;
+    }
+    let k2 = h[1].k;
+    let v1_at_k2 = if k2 >= start { v[0][k2 - start] } else { 0.0 };
+    let g = h[1].v0 * v1_at_k2 + sum_lanes(&lanes.product(v[1], v[0]));
+    // A function, not a closure: a closure is compiled apart, without the caller's AVX2.
+    #[inline(always)]
+    fn update<L: Lanes>(
+        lanes: L,
+        h: [&Reflector; 2],
+        v: [&[f64]; 2],
+        start: usize,
+        g: f64,
+        col: &mut [f64],
+        w: [f64; 2],
+    ) {
+        let c1 = h[0].tau * w[0];
+        let c2 = h[1].tau * (w[1] - c1 * g);
+        if c1 != 0.0 || c2 != 0.0 {
+            lanes.sub_scaled_2(&mut col[start..], [c1, c2], v);
+            col[h[0].k] -= c1 * h[0].v0;
+            col[h[1].k] -= c2 * h[1].v0;
+        }
+    }
+    let mut pairs = columns.chunks_exact_mut(2 * ld);
+    for pair in &mut pairs {
+        let (a0, a1) = pair.split_at_mut(ld);
+        let acc = lanes.products_2x2(v, [&a0[start..], &a1[start..]]);
+        for (b, col) in [a0, a1].into_iter().enumerate() {
+            let w1 = h[0].v0 * col[h[0].k] + sum_lanes(&acc[0][b]);
+            let w2 = h[1].v0 * col[k2] + sum_lanes(&acc[1][b]);
+            update(lanes, h, v, start, g, col, [w1, w2]);
+        }
+    }
+    let last = pairs.into_remainder();
+    if !last.is_empty() {
+        let w1 = h[0].v0 * last[h[0].k] + sum_lanes(&lanes.product(v[0], &last[start..]));
+        let w2 = h[1].v0 * last[k2] + sum_lanes(&lanes.product(v[1], &last[start..]));
+        update(lanes, h, v, start, g, last, [w1, w2]);
     }
 }
 
@@ -230,6 +321,19 @@ mod tests {
         let mut a = compound(5, 3);
         a.column_mut(1).fill(0.0);
         assert_square_root(&run(&a), &a, "rank deficient");
+    }
+
+    #[test]
+    fn zero_rows_of_a_give_identity_reflectors_in_either_place_of_a_pair() {
+        // A zero row of A is a zero column of Aᵀ: its reflector is the identity
+        // (τ = 0), first or second of a pair, or both, or the odd last one.
+        for zero_rows in [&[0][..], &[1], &[0, 1], &[2, 3, 6], &[6]] {
+            let mut a = compound(7, 20);
+            for &i in zero_rows {
+                a.row_mut(i).fill(0.0);
+            }
+            assert_square_root(&run(&a), &a, &format!("zero rows {zero_rows:?}"));
+        }
     }
 
     #[test]
