@@ -164,14 +164,47 @@ macro_rules! core_accessors {
 pub(crate) use core_accessors;
 
 /// `Err(NonFinite)` unless every value is finite.
-pub(crate) fn ensure_finite<'a>(
-    values: impl IntoIterator<Item = &'a f64>,
-    stage: Stage,
-    quantity: &'static str,
-) -> Result<(), FilterError> {
-    if values.into_iter().all(|v| v.is_finite()) {
+pub(crate) fn ensure_finite(values: &[f64], stage: Stage, quantity: &'static str) -> Result<(), FilterError> {
+    if all_finite(values) {
         Ok(())
     } else {
         Err(FilterError::NonFinite { stage, quantity })
+    }
+}
+
+/// Whether every value is finite, without a branch per value: `x − x` is 0
+/// for a finite `x` and NaN otherwise, so the lane sums stay 0 exactly when
+/// all values are finite (the compiler vectorises the lanes).
+fn all_finite(values: &[f64]) -> bool {
+    const LANES: usize = 8;
+    let mut acc = [0.0; LANES];
+    let chunks = values.chunks_exact(LANES);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for l in 0..LANES {
+            acc[l] += chunk[l] - chunk[l];
+        }
+    }
+    let rest: f64 = rest.iter().map(|v| v - v).sum();
+    acc.iter().sum::<f64>() + rest == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::all_finite;
+
+    #[test]
+    fn any_nan_or_infinity_anywhere_is_found() {
+        for len in [0, 1, 7, 8, 9, 33] {
+            let values: Vec<f64> = (0..len).map(|i| i as f64 * 1e300 - 3e301).collect();
+            assert!(all_finite(&values), "len {len}");
+            for i in 0..len {
+                for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                    let mut v = values.clone();
+                    v[i] = bad;
+                    assert!(!all_finite(&v), "{bad} at {i} of {len}");
+                }
+            }
+        }
     }
 }

@@ -71,7 +71,7 @@ impl Correction {
         let m = self.s.nrows();
         let n = x.len();
         let mv = innovation.rows_used();
-        ensure_finite(self.z_hat.iter().take(mv), Stage::Update, "predicted measurement")?;
+        ensure_finite(&self.z_hat.as_slice()[..mv], Stage::Update, "predicted measurement")?;
         ensure_finite(self.s.as_slice(), Stage::Update, "innovation covariance S")?;
         for (a, &row) in innovation.rows().iter().enumerate() {
             self.nu[a] = z[row] - self.z_hat[a];
@@ -102,8 +102,8 @@ impl Correction {
                 p_next[(j, i)] = v;
             }
         }
-        ensure_finite(x_next.iter(), Stage::Update, "updated state")?;
-        ensure_finite(p_next.iter(), Stage::Update, "updated covariance P")?;
+        ensure_finite(x_next.as_slice(), Stage::Update, "updated state")?;
+        ensure_finite(p_next.as_slice(), Stage::Update, "updated covariance P")?;
         innovation.record(self.z_hat.as_slice(), self.nu.as_slice(), self.s.as_slice(), m, self.l.as_slice(), m, e);
         std::mem::swap(x, x_next);
         std::mem::swap(p, p_next);

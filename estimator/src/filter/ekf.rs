@@ -114,17 +114,14 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
                 self.f_t[(j, i)] = (self.f_plus[i] - self.f_minus[i]) / width;
             }
         }
-        ensure_finite(
-            self.core.x_next.iter().chain(self.f_t.iter()),
-            Stage::Predict,
-            "propagated state or Jacobian F",
-        )?;
+        ensure_finite(self.core.x_next.as_slice(), Stage::Predict, "propagated state")?;
+        ensure_finite(self.f_t.as_slice(), Stage::Predict, "Jacobian F")?;
         // P⁻ = Fᵀᵀ·(P·Fᵀ) + Q.
         mul_to(self.p.as_slice(), n, n, n, self.f_t.as_slice(), n, n, self.pf_t.as_mut_slice(), n);
         self.p_next.copy_from(self.core.noise.q());
         tr_mul_add(self.f_t.as_slice(), n, n, n, self.pf_t.as_slice(), n, n, self.p_next.as_mut_slice(), n);
         symmetrize(&mut self.p_next);
-        ensure_finite(self.p_next.iter(), Stage::Predict, "predicted covariance P")?;
+        ensure_finite(self.p_next.as_slice(), Stage::Predict, "predicted covariance P")?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.core.t = t + dt;
@@ -152,7 +149,7 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
                 self.h_t[(j, a)] = (self.z_plus[row] - self.z_minus[row]) / width;
             }
         }
-        ensure_finite(self.h_t.columns(0, mv).iter(), Stage::Update, "Jacobian H")?;
+        ensure_finite(&self.h_t.as_slice()[..self.h_t.nrows() * mv], Stage::Update, "Jacobian H")?;
         // C = P·Hᵀ, S = H·C + R on the used rows.
         let cr = &mut self.correction;
         mul_to(self.p.as_slice(), n, n, n, self.h_t.as_slice(), n, mv, cr.c.as_mut_slice(), n);

@@ -132,13 +132,13 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
             let y = &mut self.ys.as_mut_slice()[i * n..(i + 1) * n];
             self.core.model.transition(t, dt, x, self.core.u.as_slice(), y);
         }
-        ensure_finite(self.ys.iter(), Stage::Predict, "propagated sigma points")?;
+        ensure_finite(self.ys.as_slice(), Stage::Predict, "propagated sigma points")?;
         weighted_mean(&self.ys, &self.points, self.core.x_next.as_mut_slice());
         subtract_mean(&mut self.ys, self.core.x_next.as_slice());
         self.p_next.copy_from(self.core.noise.q());
         add_weighted_outer_products(self.p_next.as_mut_slice(), n, &self.ys, n, &self.ys, n, &self.points);
         symmetrize(&mut self.p_next);
-        ensure_finite(self.p_next.iter(), Stage::Predict, "predicted covariance P")?;
+        ensure_finite(self.p_next.as_slice(), Stage::Predict, "predicted covariance P")?;
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.core.t = t + dt;
@@ -160,8 +160,9 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
                 self.zs[(a, i)] = self.z_point[row];
             }
         }
-        let used = (0..count).flat_map(|i| &self.zs.as_slice()[i * m..i * m + mv]);
-        ensure_finite(used, Stage::Update, "measurement sigma points")?;
+        for point in self.zs.as_slice().chunks_exact(m) {
+            ensure_finite(&point[..mv], Stage::Update, "measurement sigma points")?;
+        }
         let cr = &mut self.correction;
         cr.z_hat.fill(0.0);
         for i in 0..count {

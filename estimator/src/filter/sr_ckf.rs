@@ -214,7 +214,7 @@ impl<M: Model> SquareRootCubature<M> {
         for (z_row, &row) in z_rows.chunks_exact_mut(2 * n).zip(rows) {
             self.zs.copy_component(row, z_row);
         }
-        ensure_finite(&*z_rows, Stage::Update, "measurement cubature points")?;
+        ensure_finite(z_rows, Stage::Update, "measurement cubature points")?;
         let z_hat = &mut self.z_hat.as_mut_slice()[..mv];
         let w = 0.5 / n as f64;
         for (zh, z_row) in z_hat.iter_mut().zip(z_rows.chunks_exact(2 * n)) {

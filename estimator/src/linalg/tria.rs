@@ -139,9 +139,12 @@ impl Tria {
                 s_col[k..].fill(0.0);
                 continue;
             }
-            let sign = if self.at[k * ld + k] < 0.0 { -1.0 } else { 1.0 };
-            for (j, sv) in s_col.iter_mut().enumerate().skip(k) {
-                *sv = sign * self.at[j * ld + k];
+            // Row k of R, from column k on: entry k of each column of Aᵀ.
+            let row = self.at[k * ld..].chunks_exact(ld).map(|col| col[k]);
+            if self.at[k * ld + k] < 0.0 {
+                s_col[k..].iter_mut().zip(row).for_each(|(sv, r)| *sv = -r);
+            } else {
+                s_col[k..].iter_mut().zip(row).for_each(|(sv, r)| *sv = r);
             }
         }
     }
