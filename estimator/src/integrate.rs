@@ -160,8 +160,8 @@ impl<F: VectorField> Process for Discretized<F> {
 
     fn transition(&mut self, t: f64, dt: f64, x: &[f64], u: &[f64], x_next: &mut [f64]) {
         let h = dt / self.substeps as f64;
-        x_next.copy_from_slice(x);
-        for s in 0..self.substeps {
+        self.rk4.step(&self.field, t, h, x, u, x_next);
+        for s in 1..self.substeps {
             self.buffer.copy_from_slice(x_next);
             self.rk4.step(&self.field, t + s as f64 * h, h, &self.buffer, u, x_next);
         }
@@ -178,8 +178,8 @@ impl<F: VectorField> Process for Discretized<F> {
         scratch: &mut [f64],
     ) {
         let h = dt / self.substeps as f64;
-        x_next.copy_from_slice(x);
-        for s in 0..self.substeps {
+        self.block_stages.step(&self.field, t, h, x, u, x_next, scratch);
+        for s in 1..self.substeps {
             self.block_buffer.copy_from_slice(x_next);
             let t = t + s as f64 * h;
             self.block_stages.step(&self.field, t, h, &self.block_buffer, u, x_next, scratch);

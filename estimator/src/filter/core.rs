@@ -175,6 +175,7 @@ pub(crate) fn ensure_finite(values: &[f64], stage: Stage, quantity: &'static str
 /// Whether every value is finite, without a branch per value: `x − x` is 0
 /// for a finite `x` and NaN otherwise, so the lane sums stay 0 exactly when
 /// all values are finite (the compiler vectorises the lanes).
+#[allow(clippy::eq_op)] // `x − x` is the point: it is NaN for ±∞ and NaN.
 fn all_finite(values: &[f64]) -> bool {
     const LANES: usize = 8;
     let mut acc = [0.0; LANES];

@@ -33,6 +33,36 @@ impl PointBlocks {
         self.data.chunks_exact_mut(self.dim.max(1))
     }
 
+    /// Component `i` of point `p`.
+    #[inline(always)]
+    pub(crate) fn get(&self, i: usize, p: usize) -> f64 {
+        self.data[(p / BLOCK_POINTS) * self.dim + i][p % BLOCK_POINTS]
+    }
+
+    /// Loads points stored one per column (`dim × count`, column-major), and
+    /// `pad` into the padding.
+    pub(crate) fn load_columns(&mut self, points: &[f64], pad: &[f64]) {
+        let dim = self.dim;
+        for (p, point) in points.chunks_exact(dim).take(self.count).enumerate() {
+            let block = &mut self.data[(p / BLOCK_POINTS) * dim..][..dim];
+            for (component, &value) in block.iter_mut().zip(point) {
+                component[p % BLOCK_POINTS] = value;
+            }
+        }
+        self.pad_with(pad);
+    }
+
+    /// Stores the points one per column (`dim × count`, column-major).
+    pub(crate) fn store_columns(&self, points: &mut [f64]) {
+        let dim = self.dim;
+        for (p, point) in points.chunks_exact_mut(dim).take(self.count).enumerate() {
+            let block = &self.data[(p / BLOCK_POINTS) * dim..][..dim];
+            for (value, component) in point.iter_mut().zip(block) {
+                *value = component[p % BLOCK_POINTS];
+            }
+        }
+    }
+
     /// Sets component `i` of point `p`.
     #[inline(always)]
     pub(crate) fn set(&mut self, i: usize, p: usize, value: f64) {
@@ -91,5 +121,12 @@ mod tests {
         assert_eq!(blocks.len(), 2);
         assert_eq!(blocks[1][2], [82.0, 92.0, 102.0, -3.0, -3.0, -3.0, -3.0, -3.0]);
         assert_eq!(points.values().len(), 2 * dim * BLOCK_POINTS);
+        assert_eq!(points.get(1, 9), 91.0);
+
+        let mut columns = vec![0.0; dim * count];
+        points.store_columns(&mut columns);
+        let mut again = PointBlocks::new(dim, count);
+        again.load_columns(&columns, &[-1.0, -2.0, -3.0]);
+        assert_eq!(again.values(), points.values());
     }
 }

@@ -12,15 +12,16 @@
 //!           then the Kalman correction (see `correction.rs`).
 //! ```
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::correction::Correction;
 use crate::filter::covariance_root::CovarianceRoot;
+use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{axpy, symmetrize};
+use crate::linalg::{axpy, symmetrize, with_avx2};
 use crate::model::Model;
 use crate::noise::Noise;
 use crate::points::SigmaPoints;
@@ -45,7 +46,14 @@ pub struct SigmaPointKalman<M, R> {
     ys: DMatrix<f64>,
     /// Measurement points on the used rows (`m × N`, leading dimension `m`).
     zs: DMatrix<f64>,
-    z_point: DVector<f64>,
+    /// The points in blocks, as the model is called on them (see `model.rs`).
+    x_blocks: PointBlocks,
+    /// The propagated points in blocks.
+    y_blocks: PointBlocks,
+    /// The measurement points in blocks.
+    z_blocks: PointBlocks,
+    /// For the models' point-by-point defaults on blocks (`2n + m`).
+    model_scratch: Vec<f64>,
     correction: Correction,
 }
 
@@ -69,7 +77,10 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
             xs: DMatrix::zeros(n, count),
             ys: DMatrix::zeros(n, count),
             zs: DMatrix::zeros(m, count),
-            z_point: DVector::zeros(m),
+            x_blocks: PointBlocks::new(n, count),
+            y_blocks: PointBlocks::new(n, count),
+            z_blocks: PointBlocks::new(m, count),
+            model_scratch: vec![0.0; 2 * n + m],
             correction: Correction::new(n, m),
             core,
         })
@@ -88,6 +99,84 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
     /// The point set in use.
     pub fn points(&self) -> &SigmaPoints {
         &self.points
+    }
+
+    /// The time update (compiled once for the baseline CPU and once with AVX2, see `predict`).
+    #[inline(always)]
+    fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+        self.core.begin_predict(u, dt)?;
+        self.spread(Stage::Predict)?;
+        let n = self.core.n();
+        let t = self.core.t;
+        let u = self.core.u.as_slice();
+        self.x_blocks.load_columns(self.xs.as_slice(), self.core.x.as_slice());
+        for (x, y) in self.x_blocks.blocks().zip(self.y_blocks.blocks_mut()) {
+            self.core.model.transition_block(t, dt, x, u, y, &mut self.model_scratch);
+        }
+        self.y_blocks.store_columns(self.ys.as_mut_slice());
+        ensure_finite(self.ys.as_slice(), Stage::Predict, "propagated sigma points")?;
+        weighted_mean(&self.ys, &self.points, self.core.x_next.as_mut_slice());
+        subtract_mean(&mut self.ys, self.core.x_next.as_slice());
+        self.p_next.copy_from(self.core.noise.q());
+        add_weighted_outer_products(self.p_next.as_mut_slice(), n, &self.ys, n, &self.ys, n, &self.points);
+        symmetrize(&mut self.p_next);
+        ensure_finite(self.p_next.as_slice(), Stage::Predict, "predicted covariance P")?;
+        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
+        std::mem::swap(&mut self.p, &mut self.p_next);
+        self.core.t = t + dt;
+        Ok(())
+    }
+
+    /// The measurement update (compiled once for the baseline CPU and once with AVX2).
+    #[inline(always)]
+    fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
+        let mv = self.core.begin_update(z)?;
+        if mv == 0 {
+            self.core.innovation.record_none();
+            return Ok(());
+        }
+        self.spread(Stage::Update)?;
+        let (n, m, count) = (self.core.n(), self.core.m(), self.points.len());
+        let (t, u) = (self.core.t, self.core.u.as_slice());
+        self.x_blocks.load_columns(self.xs.as_slice(), self.core.x.as_slice());
+        let zb = &mut self.z_blocks;
+        for (x, z) in self.x_blocks.blocks().zip(zb.blocks_mut()) {
+            self.core.model.observe_block(t, x, u, z, &mut self.model_scratch);
+        }
+        for (i, point) in self.zs.as_mut_slice().chunks_exact_mut(m).enumerate() {
+            for (v, &row) in point.iter_mut().zip(self.core.innovation.rows()) {
+                *v = zb.get(row, i);
+            }
+        }
+        for point in self.zs.as_slice().chunks_exact(m) {
+            ensure_finite(&point[..mv], Stage::Update, "measurement sigma points")?;
+        }
+        let cr = &mut self.correction;
+        cr.z_hat.fill(0.0);
+        for i in 0..count {
+            axpy(
+                self.points.mean_weight(i),
+                &self.zs.as_slice()[i * m..i * m + mv],
+                &mut cr.z_hat.as_mut_slice()[..mv],
+            );
+        }
+        for i in 0..count {
+            let col = &mut self.zs.as_mut_slice()[i * m..i * m + mv];
+            for (v, zh) in col.iter_mut().zip(cr.z_hat.iter()) {
+                *v -= zh;
+            }
+        }
+        subtract_mean(&mut self.xs, self.core.x.as_slice());
+        cr.set_noise_part(self.core.noise.r(), self.core.innovation.rows());
+        add_weighted_outer_products(cr.s.as_mut_slice(), m, &self.zs, mv, &self.zs, mv, &self.points);
+        cr.c.fill(0.0);
+        add_weighted_outer_products(cr.c.as_mut_slice(), n, &self.xs, n, &self.zs, mv, &self.points);
+        cr.apply(
+            &self.core.z,
+            (&mut self.core.x, &mut self.core.x_next),
+            (&mut self.p, &mut self.p_next),
+            &mut self.core.innovation,
+        )
     }
 
     /// Spreads the points around `x` with the square root of `p`.
@@ -122,73 +211,15 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
     }
 
     fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
-        self.core.begin_predict(u, dt)?;
-        self.spread(Stage::Predict)?;
-        let n = self.core.n();
-        let count = self.points.len();
-        let t = self.core.t;
-        for i in 0..count {
-            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
-            let y = &mut self.ys.as_mut_slice()[i * n..(i + 1) * n];
-            self.core.model.transition(t, dt, x, self.core.u.as_slice(), y);
-        }
-        ensure_finite(self.ys.as_slice(), Stage::Predict, "propagated sigma points")?;
-        weighted_mean(&self.ys, &self.points, self.core.x_next.as_mut_slice());
-        subtract_mean(&mut self.ys, self.core.x_next.as_slice());
-        self.p_next.copy_from(self.core.noise.q());
-        add_weighted_outer_products(self.p_next.as_mut_slice(), n, &self.ys, n, &self.ys, n, &self.points);
-        symmetrize(&mut self.p_next);
-        ensure_finite(self.p_next.as_slice(), Stage::Predict, "predicted covariance P")?;
-        std::mem::swap(&mut self.core.x, &mut self.core.x_next);
-        std::mem::swap(&mut self.p, &mut self.p_next);
-        self.core.t = t + dt;
-        Ok(())
+        with_avx2!(fn<M: Model, R: CovarianceRoot>(filter: &mut SigmaPointKalman<M, R> = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), FilterError> {
+            filter.predict_body(u, dt)
+        })
     }
 
     fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
-        let mv = self.core.begin_update(z)?;
-        if mv == 0 {
-            self.core.innovation.record_none();
-            return Ok(&self.core.innovation);
-        }
-        self.spread(Stage::Update)?;
-        let (n, m, count) = (self.core.n(), self.core.m(), self.points.len());
-        for i in 0..count {
-            let x = &self.xs.as_slice()[i * n..(i + 1) * n];
-            self.core.model.observe(self.core.t, x, self.core.u.as_slice(), self.z_point.as_mut_slice());
-            for (a, &row) in self.core.innovation.rows().iter().enumerate() {
-                self.zs[(a, i)] = self.z_point[row];
-            }
-        }
-        for point in self.zs.as_slice().chunks_exact(m) {
-            ensure_finite(&point[..mv], Stage::Update, "measurement sigma points")?;
-        }
-        let cr = &mut self.correction;
-        cr.z_hat.fill(0.0);
-        for i in 0..count {
-            axpy(
-                self.points.mean_weight(i),
-                &self.zs.as_slice()[i * m..i * m + mv],
-                &mut cr.z_hat.as_mut_slice()[..mv],
-            );
-        }
-        for i in 0..count {
-            let col = &mut self.zs.as_mut_slice()[i * m..i * m + mv];
-            for (v, zh) in col.iter_mut().zip(cr.z_hat.iter()) {
-                *v -= zh;
-            }
-        }
-        subtract_mean(&mut self.xs, self.core.x.as_slice());
-        cr.set_noise_part(self.core.noise.r(), self.core.innovation.rows());
-        add_weighted_outer_products(cr.s.as_mut_slice(), m, &self.zs, mv, &self.zs, mv, &self.points);
-        cr.c.fill(0.0);
-        add_weighted_outer_products(cr.c.as_mut_slice(), n, &self.xs, n, &self.zs, mv, &self.points);
-        cr.apply(
-            &self.core.z,
-            (&mut self.core.x, &mut self.core.x_next),
-            (&mut self.p, &mut self.p_next),
-            &mut self.core.innovation,
-        )?;
+        with_avx2!(fn<M: Model, R: CovarianceRoot>(filter: &mut SigmaPointKalman<M, R> = self, z: &[f64] = z) -> Result<(), FilterError> {
+            filter.update_body(z)
+        })?;
         Ok(&self.core.innovation)
     }
 

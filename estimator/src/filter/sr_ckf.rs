@@ -38,9 +38,7 @@ use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-#[cfg(target_arch = "x86_64")]
-use crate::linalg::Avx2;
-use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, Tria};
+use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, with_avx2, Tria};
 use crate::model::Model;
 use crate::noise::{lower_square_root, Noise};
 
@@ -155,7 +153,7 @@ impl<M: Model> SquareRootCubature<M> {
         self.xs.pad_with(x);
     }
 
-    /// The time update (compiled once portable and once with AVX2, see `predict`).
+    /// The time update (compiled once for the baseline CPU and once with AVX2, see `predict`).
     #[inline(always)]
     fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
@@ -344,34 +342,15 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
     }
 
     fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = Avx2::detect() {
-            #[target_feature(enable = "avx2")]
-            fn run<M: Model>(f: &mut SquareRootCubature<M>, _: Avx2, u: &[f64], dt: f64) -> Result<(), FilterError> {
-                f.predict_body(u, dt)
-            }
-            #[allow(unsafe_code)]
-            // SAFETY: `avx2` exists, so the CPU has AVX2.
-            return unsafe { run(self, avx2, u, dt) };
-        }
-        self.predict_body(u, dt)
+        with_avx2!(fn<M: Model>(filter: &mut SquareRootCubature<M> = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), FilterError> {
+            filter.predict_body(u, dt)
+        })
     }
 
     fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = Avx2::detect() {
-            #[target_feature(enable = "avx2")]
-            fn run<M: Model>(f: &mut SquareRootCubature<M>, _: Avx2, z: &[f64]) -> Result<(), FilterError> {
-                f.update_body(z)
-            }
-            #[allow(unsafe_code)]
-            // SAFETY: `avx2` exists, so the CPU has AVX2.
-            unsafe {
-                run(self, avx2, z)?
-            };
-            return Ok(&self.core.innovation);
-        }
-        self.update_body(z)?;
+        with_avx2!(fn<M: Model>(filter: &mut SquareRootCubature<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
+            filter.update_body(z)
+        })?;
         Ok(&self.core.innovation)
     }
 

@@ -90,6 +90,42 @@ impl Lanes for Portable {
 #[cfg(target_arch = "x86_64")]
 pub(crate) use avx2::Avx2;
 
+/// Runs a function body compiled with AVX2 enabled when the CPU has it, and
+/// the same body compiled for the baseline CPU otherwise. Everything the body
+/// inlines (the plain loops of a filter step, a model's block methods marked
+/// `#[inline]`) is then vectorised with AVX2; the arithmetic and its order
+/// are the same in both, so the results are too.
+///
+/// ```text
+/// with_avx2!(fn<M: Model>(filter: &mut SquareRootCubature<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
+///     filter.update_body(z)
+/// })
+/// ```
+macro_rules! with_avx2 {
+    (fn<$($g:ident: $bound:path),*>($($arg:ident: $t:ty = $val:expr),*) -> $ret:ty $body:block) => {{
+        #[inline(always)]
+        fn body<$($g: $bound),*>($($arg: $t),*) -> $ret $body
+        #[cfg(target_arch = "x86_64")]
+        let result = if let Some(avx2) = $crate::linalg::Avx2::detect() {
+            #[target_feature(enable = "avx2")]
+            fn run<$($g: $bound),*>(_: $crate::linalg::Avx2, $($arg: $t),*) -> $ret {
+                body($($arg),*)
+            }
+            #[allow(unsafe_code)]
+            // SAFETY: an `Avx2` exists only on a CPU with AVX2.
+            unsafe {
+                run(avx2, $($val),*)
+            }
+        } else {
+            body($($val),*)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let result = body($($val),*);
+        result
+    }};
+}
+pub(crate) use with_avx2;
+
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx2 {

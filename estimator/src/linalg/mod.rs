@@ -13,6 +13,7 @@ mod symmetric_eigen;
 mod tria;
 
 pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_right_lower, solve_right_lower_transposed};
+pub(crate) use lanes::with_avx2;
 #[cfg(target_arch = "x86_64")]
 pub(crate) use lanes::Avx2;
 pub use symmetric_eigen::SymmetricEigen;
