@@ -63,12 +63,6 @@ impl PointBlocks {
         }
     }
 
-    /// Sets component `i` of point `p`.
-    #[inline(always)]
-    pub(crate) fn set(&mut self, i: usize, p: usize, value: f64) {
-        self.data[(p / BLOCK_POINTS) * self.dim + i][p % BLOCK_POINTS] = value;
-    }
-
     /// Copies component `i` at every point, in point order, into `out` (`count` values).
     #[inline(always)]
     pub(crate) fn copy_component(&self, i: usize, out: &mut [f64]) {
@@ -79,7 +73,7 @@ impl PointBlocks {
     }
 
     /// Copies `point` into the padding lanes.
-    pub(crate) fn pad_with(&mut self, point: &[f64]) {
+    fn pad_with(&mut self, point: &[f64]) {
         let (first_pad, dim) = (self.count % BLOCK_POINTS, self.dim);
         if first_pad == 0 || dim == 0 {
             return;
@@ -104,13 +98,9 @@ mod tests {
     #[test]
     fn points_round_trip_and_padding_holds_the_given_point() {
         let (dim, count) = (3, 11);
+        let columns: Vec<f64> = (0..count).flat_map(|p| (0..dim).map(move |i| (10 * p + i) as f64)).collect();
         let mut points = PointBlocks::new(dim, count);
-        for p in 0..count {
-            for i in 0..dim {
-                points.set(i, p, (10 * p + i) as f64);
-            }
-        }
-        points.pad_with(&[-1.0, -2.0, -3.0]);
+        points.load_columns(&columns, &[-1.0, -2.0, -3.0]);
         for i in 0..dim {
             let expected: Vec<f64> = (0..count).map(|p| (10 * p + i) as f64).collect();
             let mut component = vec![0.0; count];
@@ -123,10 +113,11 @@ mod tests {
         assert_eq!(points.values().len(), 2 * dim * BLOCK_POINTS);
         assert_eq!(points.get(1, 9), 91.0);
 
-        let mut columns = vec![0.0; dim * count];
-        points.store_columns(&mut columns);
+        let mut stored = vec![0.0; dim * count];
+        points.store_columns(&mut stored);
+        assert_eq!(stored, columns);
         let mut again = PointBlocks::new(dim, count);
-        again.load_columns(&columns, &[-1.0, -2.0, -3.0]);
+        again.load_columns(&stored, &[-1.0, -2.0, -3.0]);
         assert_eq!(again.values(), points.values());
     }
 }

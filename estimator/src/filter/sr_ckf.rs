@@ -39,7 +39,7 @@ use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, with_avx2, Tria};
-use crate::model::Model;
+use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::{lower_square_root, Noise};
 
 /// SRCKF. Keeps running where rounding would make the CKF's `P` indefinite.
@@ -138,19 +138,28 @@ impl<M: Model> SquareRootCubature<M> {
         Ok(())
     }
 
-    /// Spreads `xs = x̂ ± √n·S·eⱼ` (points `j` and `n + j`); the padding holds `x̂`.
+    /// Spreads the points `x̂ + √n·S·eⱼ` (point `j`) and `x̂ − √n·S·eⱼ` (point
+    /// `n + j`) into their blocks; the padding holds `x̂`.
     #[inline(always)]
     fn spread(&mut self) {
         let n = self.core.n();
         let c = (n as f64).sqrt();
-        let x = self.core.x.as_slice();
-        for (j, col) in self.s.as_slice().chunks_exact(n).enumerate() {
-            for (i, (&xi, &si)) in x.iter().zip(col).enumerate() {
-                self.xs.set(i, j, xi + c * si);
-                self.xs.set(i, n + j, xi - c * si);
+        let (x, s) = (self.core.x.as_slice(), self.s.as_slice());
+        for (b, block) in self.xs.blocks_mut().enumerate() {
+            for l in 0..BLOCK_POINTS {
+                let p = b * BLOCK_POINTS + l;
+                if p < 2 * n {
+                    let (j, sign) = if p < n { (p, c) } else { (p - n, -c) };
+                    for ((row, &xi), &si) in block.iter_mut().zip(x).zip(&s[j * n..(j + 1) * n]) {
+                        row[l] = xi + sign * si;
+                    }
+                } else {
+                    for (row, &xi) in block.iter_mut().zip(x) {
+                        row[l] = xi;
+                    }
+                }
             }
         }
-        self.xs.pad_with(x);
     }
 
     /// The time update (compiled once for the baseline CPU and once with AVX2, see `predict`).
