@@ -38,7 +38,9 @@ use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, with_avx2, Tria};
+use crate::linalg::{
+    axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, with_avx2, Tria,
+};
 use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::{lower_square_root, Noise};
 
@@ -184,7 +186,7 @@ impl<M: Model> SquareRootCubature<M> {
             let col = self.predict_compound.column_mut(r);
             let (head, points) = col.split_at_mut(n);
             self.ys.copy_component(r, points);
-            *x_r = points.iter().fold(0.0, |sum, y| sum + w * y);
+            *x_r = w * sum(points);
             for c in points {
                 *c = (*c - *x_r) * scale;
             }
@@ -225,7 +227,7 @@ impl<M: Model> SquareRootCubature<M> {
         let z_hat = &mut self.z_hat.as_mut_slice()[..mv];
         let w = 0.5 / n as f64;
         for (zh, z_row) in z_hat.iter_mut().zip(z_rows.chunks_exact(2 * n)) {
-            *zh = z_row.iter().fold(0.0, |sum, z| sum + w * z);
+            *zh = w * sum(z_row);
         }
 
         // D̃ = (γ⁺ − γ⁻)/√2 and Σ̃ = (γ⁺ + γ⁻)/√2, one column of Dᵀ-shape per used row.

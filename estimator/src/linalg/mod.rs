@@ -42,6 +42,25 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     sum
 }
 
+/// `Σ xᵢ` with four independent accumulators, as [`dot`]: a single running
+/// sum would wait on each addition's latency.
+#[inline(always)]
+pub(crate) fn sum(x: &[f64]) -> f64 {
+    let mut acc = [0.0_f64; 4];
+    let chunks = x.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..4 {
+            acc[l] += c[l];
+        }
+    }
+    let mut total = (acc[0] + acc[2]) + (acc[1] + acc[3]);
+    for v in rest {
+        total += v;
+    }
+    total
+}
+
 /// `y += alpha * x`.
 #[inline(always)]
 pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
