@@ -164,6 +164,7 @@ macro_rules! core_accessors {
 pub(crate) use core_accessors;
 
 /// `Err(NonFinite)` unless every value is finite.
+#[inline]
 pub(crate) fn ensure_finite(values: &[f64], stage: Stage, quantity: &'static str) -> Result<(), FilterError> {
     if all_finite(values) {
         Ok(())
@@ -176,6 +177,7 @@ pub(crate) fn ensure_finite(values: &[f64], stage: Stage, quantity: &'static str
 /// for a finite `x` and NaN otherwise, so the lane sums stay 0 exactly when
 /// all values are finite (the compiler vectorises the lanes).
 #[allow(clippy::eq_op)] // `x − x` is the point: it is NaN for ±∞ and NaN.
+#[inline]
 fn all_finite(values: &[f64]) -> bool {
     const LANES: usize = 8;
     let mut acc = [0.0; LANES];

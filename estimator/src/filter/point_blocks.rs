@@ -67,8 +67,13 @@ impl PointBlocks {
     #[inline(always)]
     pub(crate) fn copy_component(&self, i: usize, out: &mut [f64]) {
         debug_assert_eq!(out.len(), self.count);
-        for (chunk, block) in out.chunks_mut(BLOCK_POINTS).zip(self.blocks()) {
-            chunk.copy_from_slice(&block[i][..chunk.len()]);
+        let (whole, rest) = out.as_chunks_mut::<BLOCK_POINTS>();
+        let mut blocks = self.blocks();
+        for (chunk, block) in whole.iter_mut().zip(&mut blocks) {
+            *chunk = block[i];
+        }
+        if let Some(block) = blocks.next() {
+            rest.copy_from_slice(&block[i][..rest.len()]);
         }
     }
 
