@@ -171,8 +171,11 @@ fn reflector<L: Lanes>(
     start: usize,
     rows: usize,
 ) -> Reflector {
-    v.fill(0.0);
-    v[first - start..rows - start].copy_from_slice(&col[first..rows]);
+    let (zeros, rest) = v.split_at_mut(first - start);
+    let (part, padding) = rest.split_at_mut(rows - first);
+    zeros.fill(0.0);
+    part.copy_from_slice(&col[first..rows]);
+    padding.fill(0.0);
     let x0 = col[k];
     let norm2 = x0 * x0 + sum_lanes(&lanes.product(v, v));
     if norm2 == 0.0 {
