@@ -42,9 +42,36 @@ fn the_chain_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
 }
 
 #[test]
+fn the_s1_model_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
+    for chain in [Oscillator2Dof::stiffness_nonlinear(), Oscillator2Dof::damping_nonlinear()] {
+        assert_block_equals_pointwise(Discretized::rk4(Oscillator2DofLoad::new(chain), 2), "S1 model");
+    }
+}
+
+/// A model with only the point-by-point methods.
+struct PointOnly(Oscillator2DofLoad);
+
+impl VectorField for PointOnly {
+    fn state_dim(&self) -> usize {
+        6
+    }
+    fn derivative(&self, t: f64, x: &[f64], u: &[f64], dxdt: &mut [f64]) {
+        self.0.derivative(t, x, u, dxdt)
+    }
+}
+
+impl Observation for PointOnly {
+    fn measurement_dim(&self) -> usize {
+        2
+    }
+    fn observe(&self, t: f64, x: &[f64], u: &[f64], z: &mut [f64]) {
+        self.0.observe(t, x, u, z)
+    }
+}
+
+#[test]
 fn the_default_block_methods_equal_the_point_methods_bit_for_bit() {
-    // The S1 model has no block methods of its own: the defaults run.
-    let model = Oscillator2DofLoad::new(Oscillator2Dof::damping_nonlinear());
+    let model = PointOnly(Oscillator2DofLoad::new(Oscillator2Dof::damping_nonlinear()));
     let mut scratch = vec![0.0; 12];
     let x = block(6, 99);
     let mut d = vec![[0.0; BLOCK_POINTS]; 6];
@@ -54,5 +81,5 @@ fn the_default_block_methods_equal_the_point_methods_bit_for_bit() {
         model.derivative(0.0, &point(&x, p), &[], &mut d1);
         assert_eq!(point(&d, p), d1, "point {p}");
     }
-    assert_block_equals_pointwise(Discretized::rk4(model, 2), "S1 damping model");
+    assert_block_equals_pointwise(Discretized::rk4(model, 2), "S1 model through the defaults");
 }

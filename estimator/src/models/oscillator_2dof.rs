@@ -12,7 +12,7 @@
 //! `[z₁, z₂, F, ż₁, ż₂, Ḟ]` with `F` a second-order random walk (`F̈ = 0` plus
 //! noise) and the measurements `[z̈₁, z̈₂]` (eqs. (5)–(7)).
 
-use crate::model::{Observation, VectorField};
+use crate::model::{Component, Observation, VectorField};
 use crate::models::PiecewiseLinear;
 
 /// The physical two-mass chain.
@@ -62,9 +62,30 @@ impl Oscillator2Dof {
     /// Accelerations `(z̈₁, z̈₂)` for positions, velocities and the load `F`.
     #[inline]
     pub fn accelerations(&self, z1: f64, z2: f64, v1: f64, v2: f64, load: f64) -> (f64, f64) {
-        let coupling = self.k2 * (z2 - z1) + self.c2 * (v2 - v1);
-        let ground = self.k1.force(z1) + self.c1.force(v1);
-        ((coupling - ground) / self.m1, (load - coupling) / self.m2)
+        let ([a1], [a2]) = self.accelerations_lanes(&[z1], &[z2], &[v1], &[v2], &[load]);
+        (a1, a2)
+    }
+
+    /// [`accelerations`](Self::accelerations) lane by lane (one point per
+    /// lane), in the shape the compiler vectorises across points.
+    #[inline(always)]
+    pub fn accelerations_lanes<const L: usize>(
+        &self,
+        z1: &[f64; L],
+        z2: &[f64; L],
+        v1: &[f64; L],
+        v2: &[f64; L],
+        load: &[f64; L],
+    ) -> ([f64; L], [f64; L]) {
+        let (spring, damper) = (self.k1.force_lanes(z1), self.c1.force_lanes(v1));
+        let (mut a1, mut a2) = ([0.0; L], [0.0; L]);
+        for l in 0..L {
+            let coupling = self.k2 * (z2[l] - z1[l]) + self.c2 * (v2[l] - v1[l]);
+            let ground = spring[l] + damper[l];
+            a1[l] = (coupling - ground) / self.m1;
+            a2[l] = (load[l] - coupling) / self.m2;
+        }
+        (a1, a2)
     }
 }
 
@@ -90,19 +111,38 @@ impl Oscillator2DofLoad {
     }
 }
 
+impl Oscillator2DofLoad {
+    /// `ẋ` lane by lane: `L = 1` for one point, or a block of points.
+    #[inline(always)]
+    fn derivative_lanes<const L: usize>(&self, x: &[[f64; L]], dxdt: &mut [[f64; L]]) {
+        let (a1, a2) = self.chain.accelerations_lanes(&x[0], &x[1], &x[3], &x[4], &x[2]);
+        dxdt[0] = x[3];
+        dxdt[1] = x[4];
+        dxdt[2] = x[5];
+        dxdt[3] = a1;
+        dxdt[4] = a2;
+        dxdt[5] = [0.0; L];
+    }
+
+    /// `[z̈₁, z̈₂]` lane by lane.
+    #[inline(always)]
+    fn observe_lanes<const L: usize>(&self, x: &[[f64; L]], z: &mut [[f64; L]]) {
+        (z[0], z[1]) = self.chain.accelerations_lanes(&x[0], &x[1], &x[3], &x[4], &x[2]);
+    }
+}
+
 impl VectorField for Oscillator2DofLoad {
     fn state_dim(&self) -> usize {
         6
     }
 
     fn derivative(&self, _t: f64, x: &[f64], _u: &[f64], dxdt: &mut [f64]) {
-        let (a1, a2) = self.chain.accelerations(x[0], x[1], x[3], x[4], x[2]);
-        dxdt[0] = x[3];
-        dxdt[1] = x[4];
-        dxdt[2] = x[5];
-        dxdt[3] = a1;
-        dxdt[4] = a2;
-        dxdt[5] = 0.0;
+        self.derivative_lanes::<1>(x.as_chunks().0, dxdt.as_chunks_mut().0);
+    }
+
+    #[inline(always)]
+    fn derivative_block(&self, _t: f64, x: &[Component], _u: &[f64], dxdt: &mut [Component], _scratch: &mut [f64]) {
+        self.derivative_lanes(x, dxdt);
     }
 }
 
@@ -112,8 +152,11 @@ impl Observation for Oscillator2DofLoad {
     }
 
     fn observe(&self, _t: f64, x: &[f64], _u: &[f64], z: &mut [f64]) {
-        let (a1, a2) = self.chain.accelerations(x[0], x[1], x[3], x[4], x[2]);
-        z[0] = a1;
-        z[1] = a2;
+        self.observe_lanes::<1>(x.as_chunks().0, z.as_chunks_mut().0);
+    }
+
+    #[inline(always)]
+    fn observe_block(&self, _t: f64, x: &[Component], _u: &[f64], z: &mut [Component], _scratch: &mut [f64]) {
+        self.observe_lanes(x, z);
     }
 }
