@@ -22,7 +22,9 @@
 //! model whose law is written lane by lane without branches overrides them,
 //! and the compiler then vectorises it across the points. Both must give the
 //! same numbers, bit for bit: the filters' results must not depend on which
-//! one runs.
+//! one runs. When the points do not fill the last block, its spare lanes hold
+//! a copy of a real point (the mean), and what the model returns for them is
+//! not used.
 
 /// Points in a block of the batched model calls.
 pub const BLOCK_POINTS: usize = 8;
