@@ -9,16 +9,19 @@
 //!
 //! The difference step for state `j` is `∛ε·max(|x̂ⱼ|, σⱼ)` (σⱼ² = Pⱼⱼ), the
 //! classical balance of truncation against rounding error for central differences.
+//! The `2n + 1` points `x̂, x̂ ± hⱼ·eⱼ` go to the model in blocks, as the
+//! sigma-point filters' do.
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, Core};
 use crate::filter::correction::Correction;
+use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, Innovation, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{mul_to, symmetrize, tr_mul_add};
-use crate::model::Model;
+use crate::linalg::{mul_to, symmetrize, tr_mul_add, with_avx2};
+use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::Noise;
 
 /// EKF with finite-difference Jacobians.
@@ -33,12 +36,18 @@ pub struct ExtendedKalman<M> {
     h_t: DMatrix<f64>,
     /// `P·Fᵀ`.
     pf_t: DMatrix<f64>,
-    x_plus: DVector<f64>,
-    x_minus: DVector<f64>,
-    f_plus: DVector<f64>,
-    f_minus: DVector<f64>,
-    z_plus: DVector<f64>,
-    z_minus: DVector<f64>,
+    /// `x̂` (point 0), `x̂ + hⱼ·eⱼ` (point `1 + j`), `x̂ − hⱼ·eⱼ` (point `1 + n + j`).
+    points: PointBlocks,
+    /// The difference steps `hⱼ`.
+    steps: DVector<f64>,
+    /// The distances `(x̂ⱼ + hⱼ) − (x̂ⱼ − hⱼ)` actually taken.
+    widths: DVector<f64>,
+    /// `φ` at the points.
+    propagated: PointBlocks,
+    /// `h` at the points.
+    observed: PointBlocks,
+    /// For the models' point-by-point defaults on blocks (`2n + m`).
+    model_scratch: Vec<f64>,
     correction: Correction,
 }
 
@@ -53,12 +62,12 @@ impl<M: Model> ExtendedKalman<M> {
             f_t: DMatrix::zeros(n, n),
             h_t: DMatrix::zeros(n, m),
             pf_t: DMatrix::zeros(n, n),
-            x_plus: DVector::zeros(n),
-            x_minus: DVector::zeros(n),
-            f_plus: DVector::zeros(n),
-            f_minus: DVector::zeros(n),
-            z_plus: DVector::zeros(m),
-            z_minus: DVector::zeros(m),
+            points: PointBlocks::new(n, 2 * n + 1),
+            steps: DVector::zeros(n),
+            widths: DVector::zeros(n),
+            propagated: PointBlocks::new(n, 2 * n + 1),
+            observed: PointBlocks::new(m, 2 * n + 1),
+            model_scratch: vec![0.0; 2 * n + m],
             correction: Correction::new(n, m),
             core,
         })
@@ -74,44 +83,49 @@ impl<M: Model> ExtendedKalman<M> {
         &mut self.core.model
     }
 
-    /// Writes `x̂ ± h·eⱼ` into `x_plus`/`x_minus`; returns their actual distance.
-    fn perturb(&mut self, j: usize) -> f64 {
-        let x = &self.core.x;
-        let h = f64::EPSILON.cbrt() * x[j].abs().max(self.p[(j, j)].max(0.0).sqrt()).max(f64::MIN_POSITIVE.sqrt());
-        self.x_plus.copy_from(x);
-        self.x_minus.copy_from(x);
-        self.x_plus[j] += h;
-        self.x_minus[j] -= h;
-        // The step actually taken after rounding, so that linear maps are differenced exactly.
-        self.x_plus[j] - self.x_minus[j]
+    /// Spreads `x̂` and `x̂ ± hⱼ·eⱼ` into their blocks (the padding holds `x̂`).
+    #[inline(always)]
+    fn spread(&mut self) {
+        let n = self.core.n();
+        let x = self.core.x.as_slice();
+        for (j, (step, width)) in self.steps.iter_mut().zip(self.widths.iter_mut()).enumerate() {
+            *step = f64::EPSILON.cbrt() * x[j].abs().max(self.p[(j, j)].max(0.0).sqrt()).max(f64::MIN_POSITIVE.sqrt());
+            // The step actually taken after rounding, so that linear maps are differenced exactly.
+            *width = (x[j] + *step) - (x[j] - *step);
+        }
+        for (b, block) in self.points.blocks_mut().enumerate() {
+            for l in 0..BLOCK_POINTS {
+                for (row, &xi) in block.iter_mut().zip(x) {
+                    row[l] = xi;
+                }
+                let p = b * BLOCK_POINTS + l;
+                if (1..=n).contains(&p) {
+                    block[p - 1][l] = x[p - 1] + self.steps[p - 1];
+                } else if (n + 1..=2 * n).contains(&p) {
+                    block[p - 1 - n][l] = x[p - 1 - n] - self.steps[p - 1 - n];
+                }
+            }
+        }
     }
-}
 
-impl<M: Model> StateEstimator for ExtendedKalman<M> {
-    core_accessors!();
-
-    fn kind(&self) -> FilterKind {
-        FilterKind::Ekf
-    }
-
-    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+    /// The time update (compiled once for the baseline CPU and once with AVX2).
+    #[inline(always)]
+    fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
         let n = self.core.n();
         let t = self.core.t;
-        self.core.model.transition(
-            t,
-            dt,
-            self.core.x.as_slice(),
-            self.core.u.as_slice(),
-            self.core.x_next.as_mut_slice(),
-        );
+        self.spread();
+        let u = self.core.u.as_slice();
+        for (x, y) in self.points.blocks().zip(self.propagated.blocks_mut()) {
+            self.core.model.transition_block(t, dt, x, u, y, &mut self.model_scratch);
+        }
+        let y = &self.propagated;
+        for (i, x_i) in self.core.x_next.iter_mut().enumerate() {
+            *x_i = y.get(i, 0);
+        }
         for j in 0..n {
-            let width = self.perturb(j);
-            let u = self.core.u.as_slice();
-            self.core.model.transition(t, dt, self.x_plus.as_slice(), u, self.f_plus.as_mut_slice());
-            self.core.model.transition(t, dt, self.x_minus.as_slice(), u, self.f_minus.as_mut_slice());
             for i in 0..n {
-                self.f_t[(j, i)] = (self.f_plus[i] - self.f_minus[i]) / width;
+                self.f_t[(j, i)] = (y.get(i, 1 + j) - y.get(i, 1 + n + j)) / self.widths[j];
             }
         }
         ensure_finite(self.core.x_next.as_slice(), Stage::Predict, "propagated state")?;
@@ -128,25 +142,25 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         Ok(())
     }
 
-    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
+    /// The measurement update (compiled once for the baseline CPU and once with AVX2).
+    #[inline(always)]
+    fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
         let mv = self.core.begin_update(z)?;
         if mv == 0 {
             self.core.innovation.record_none();
-            return Ok(&self.core.innovation);
+            return Ok(());
         }
         let n = self.core.n();
-        let t = self.core.t;
-        self.core.model.observe(t, self.core.x.as_slice(), self.core.u.as_slice(), self.z_plus.as_mut_slice());
-        for (a, &row) in self.core.innovation.rows().iter().enumerate() {
-            self.correction.z_hat[a] = self.z_plus[row];
+        self.spread();
+        let (t, u) = (self.core.t, self.core.u.as_slice());
+        for (x, z) in self.points.blocks().zip(self.observed.blocks_mut()) {
+            self.core.model.observe_block(t, x, u, z, &mut self.model_scratch);
         }
-        for j in 0..n {
-            let width = self.perturb(j);
-            let u = self.core.u.as_slice();
-            self.core.model.observe(t, self.x_plus.as_slice(), u, self.z_plus.as_mut_slice());
-            self.core.model.observe(t, self.x_minus.as_slice(), u, self.z_minus.as_mut_slice());
-            for (a, &row) in self.core.innovation.rows().iter().enumerate() {
-                self.h_t[(j, a)] = (self.z_plus[row] - self.z_minus[row]) / width;
+        let observed = &self.observed;
+        for (a, &row) in self.core.innovation.rows().iter().enumerate() {
+            self.correction.z_hat[a] = observed.get(row, 0);
+            for j in 0..n {
+                self.h_t[(j, a)] = (observed.get(row, 1 + j) - observed.get(row, 1 + n + j)) / self.widths[j];
             }
         }
         ensure_finite(&self.h_t.as_slice()[..self.h_t.nrows() * mv], Stage::Update, "Jacobian H")?;
@@ -161,7 +175,27 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
             (&mut self.core.x, &mut self.core.x_next),
             (&mut self.p, &mut self.p_next),
             &mut self.core.innovation,
-        )?;
+        )
+    }
+}
+
+impl<M: Model> StateEstimator for ExtendedKalman<M> {
+    core_accessors!();
+
+    fn kind(&self) -> FilterKind {
+        FilterKind::Ekf
+    }
+
+    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+        with_avx2!(fn<M: Model>(filter: &mut ExtendedKalman<M> = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), FilterError> {
+            filter.predict_body(u, dt)
+        })
+    }
+
+    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
+        with_avx2!(fn<M: Model>(filter: &mut ExtendedKalman<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
+            filter.update_body(z)
+        })?;
         Ok(&self.core.innovation)
     }
 
