@@ -13,24 +13,13 @@
 
 use estimator::models::Oscillator2DofLoad;
 use estimator::{CubatureKalman, Discretized, Gaussian, SquareRootCubature, StateEstimator};
-use scenarios::s1::{simulate, Case, LoadKind, Nonlinearity, Settings, Tuning};
+use scenarios::s1::{simulate, Case, Settings, Tuning};
 
 fn main() {
     let name = std::env::args().nth(1).unwrap_or_else(|| "stiffness/harmonic".into());
-    let case = Case::ALL
-        .into_iter()
-        .find(|c| {
-            let nonlinearity = match c.nonlinearity {
-                Nonlinearity::Stiffness => "stiffness",
-                Nonlinearity::Damping => "damping",
-            };
-            let load = match c.load {
-                LoadKind::Random => "random",
-                LoadKind::Harmonic => "harmonic",
-            };
-            format!("{nonlinearity}/{load}") == name
-        })
-        .unwrap_or_else(|| panic!("unknown case {name:?}"));
+    let case = Case::ALL.into_iter().find(|c| c.to_string() == name).unwrap_or_else(|| {
+        panic!("unknown case {name:?}: use stiffness/random, damping/random, stiffness/harmonic or damping/harmonic")
+    });
     let settings = Settings::default();
     let (_, measurements) = simulate(&case, &settings);
     let tuning = Tuning::new(&settings, measurements.noise_std);
