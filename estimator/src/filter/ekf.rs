@@ -15,12 +15,12 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
-use crate::filter::core::{core_accessors, ensure_finite, Core};
+use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{FilterKind, Innovation, StateEstimator};
+use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{mul_to, symmetrize, tr_mul_add, with_avx2};
+use crate::linalg::{mul_to, symmetrize, tr_mul_add};
 use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::Noise;
 
@@ -108,7 +108,7 @@ impl<M: Model> ExtendedKalman<M> {
         }
     }
 
-    /// The time update (compiled once for the baseline CPU and once with AVX2).
+    /// The time update (compiled once for the baseline CPU and once with AVX2, see `steps_with_avx2!`).
     #[inline(always)]
     fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
@@ -186,18 +186,7 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         FilterKind::Ekf
     }
 
-    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
-        with_avx2!(fn<M: Model>(filter: &mut ExtendedKalman<M> = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), FilterError> {
-            filter.predict_body(u, dt)
-        })
-    }
-
-    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
-        with_avx2!(fn<M: Model>(filter: &mut ExtendedKalman<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
-            filter.update_body(z)
-        })?;
-        Ok(&self.core.innovation)
-    }
+    steps_with_avx2!(<M: Model> ExtendedKalman<M>);
 
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         out.copy_from(&self.p);

@@ -15,13 +15,13 @@
 use nalgebra::DMatrix;
 
 use crate::error::{FilterError, Stage};
-use crate::filter::core::{core_accessors, ensure_finite, Core};
+use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::covariance_root::CovarianceRoot;
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{FilterKind, Innovation, StateEstimator};
+use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{axpy, symmetrize, with_avx2};
+use crate::linalg::{axpy, symmetrize};
 use crate::model::Model;
 use crate::noise::Noise;
 use crate::points::SigmaPoints;
@@ -101,7 +101,7 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
         &self.points
     }
 
-    /// The time update (compiled once for the baseline CPU and once with AVX2, see `predict`).
+    /// The time update (compiled once for the baseline CPU and once with AVX2, see `steps_with_avx2!`).
     #[inline(always)]
     fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
@@ -210,18 +210,7 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         self.kind
     }
 
-    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
-        with_avx2!(fn<M: Model, R: CovarianceRoot>(filter: &mut SigmaPointKalman<M, R> = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), FilterError> {
-            filter.predict_body(u, dt)
-        })
-    }
-
-    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
-        with_avx2!(fn<M: Model, R: CovarianceRoot>(filter: &mut SigmaPointKalman<M, R> = self, z: &[f64] = z) -> Result<(), FilterError> {
-            filter.update_body(z)
-        })?;
-        Ok(&self.core.innovation)
-    }
+    steps_with_avx2!(<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R>);
 
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         out.copy_from(&self.p);

@@ -34,13 +34,11 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
-use crate::filter::core::{core_accessors, ensure_finite, Core};
+use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{FilterKind, Innovation, StateEstimator};
+use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{
-    axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, with_avx2, Tria,
-};
+use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Tria};
 use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::{lower_square_root, Noise};
 
@@ -164,7 +162,7 @@ impl<M: Model> SquareRootCubature<M> {
         }
     }
 
-    /// The time update (compiled once for the baseline CPU and once with AVX2, see `predict`).
+    /// The time update (compiled once for the baseline CPU and once with AVX2, see `steps_with_avx2!`).
     #[inline(always)]
     fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
@@ -202,7 +200,7 @@ impl<M: Model> SquareRootCubature<M> {
         Ok(())
     }
 
-    /// The measurement update (compiled once portable and once with AVX2).
+    /// The measurement update (compiled once for the baseline CPU and once with AVX2).
     #[inline(always)]
     fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
         let mv = self.core.begin_update(z)?;
@@ -352,18 +350,7 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         FilterKind::SrCkf
     }
 
-    fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
-        with_avx2!(fn<M: Model>(filter: &mut SquareRootCubature<M> = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), FilterError> {
-            filter.predict_body(u, dt)
-        })
-    }
-
-    fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError> {
-        with_avx2!(fn<M: Model>(filter: &mut SquareRootCubature<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
-            filter.update_body(z)
-        })?;
-        Ok(&self.core.innovation)
-    }
+    steps_with_avx2!(<M: Model> SquareRootCubature<M>);
 
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         let n = self.core.n();
