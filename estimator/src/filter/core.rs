@@ -164,19 +164,20 @@ macro_rules! core_accessors {
 pub(crate) use core_accessors;
 
 /// The `predict` and `update` of [`StateEstimator`](crate::StateEstimator)
-/// for a filter with inherent `predict_body(u, dt)` and `update_body(z)`:
-/// each body runs compiled with AVX2 when the CPU has it (see `with_avx2!`).
+/// for a filter with inherent `predict_body(lanes, u, dt)` and
+/// `update_body(lanes, z)`: each body runs compiled with AVX2 and FMA when the
+/// CPU has them, with the matching kernels (see `with_avx2!`).
 macro_rules! steps_with_avx2 {
     (<$($g:ident: $bound:path),*> $filter:ty) => {
         fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), crate::error::FilterError> {
-            crate::linalg::with_avx2!(fn<$($g: $bound),*>(filter: &mut $filter = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), crate::error::FilterError> {
-                filter.predict_body(u, dt)
+            crate::linalg::with_avx2!(fn<$($g: $bound),*>(lanes, filter: &mut $filter = self, u: &[f64] = u, dt: f64 = dt) -> Result<(), crate::error::FilterError> {
+                filter.predict_body(lanes, u, dt)
             })
         }
 
         fn update(&mut self, z: &[f64]) -> Result<&crate::filter::Innovation, crate::error::FilterError> {
-            crate::linalg::with_avx2!(fn<$($g: $bound),*>(filter: &mut $filter = self, z: &[f64] = z) -> Result<(), crate::error::FilterError> {
-                filter.update_body(z)
+            crate::linalg::with_avx2!(fn<$($g: $bound),*>(lanes, filter: &mut $filter = self, z: &[f64] = z) -> Result<(), crate::error::FilterError> {
+                filter.update_body(lanes, z)
             })?;
             Ok(&self.core.innovation)
         }

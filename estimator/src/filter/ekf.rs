@@ -20,6 +20,7 @@ use crate::filter::correction::Correction;
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
+use crate::linalg::Lanes;
 use crate::linalg::{mul_to, symmetrize, tr_mul_add};
 use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::Noise;
@@ -108,9 +109,9 @@ impl<M: Model> ExtendedKalman<M> {
         }
     }
 
-    /// The time update (compiled once for the baseline CPU and once with AVX2, see `steps_with_avx2!`).
+    /// The time update (compiled once for the baseline CPU and once with AVX2 and FMA, see `steps_with_avx2!`).
     #[inline(always)]
-    fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+    fn predict_body<L: Lanes>(&mut self, _lanes: L, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
         let n = self.core.n();
         let t = self.core.t;
@@ -142,9 +143,9 @@ impl<M: Model> ExtendedKalman<M> {
         Ok(())
     }
 
-    /// The measurement update (compiled once for the baseline CPU and once with AVX2).
+    /// The measurement update (compiled once for the baseline CPU and once with AVX2 and FMA).
     #[inline(always)]
-    fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
+    fn update_body<L: Lanes>(&mut self, _lanes: L, z: &[f64]) -> Result<(), FilterError> {
         let mv = self.core.begin_update(z)?;
         if mv == 0 {
             self.core.innovation.record_none();

@@ -77,6 +77,22 @@ impl PointBlocks {
         }
     }
 
+    /// Sets component `i` of every point, padding included, from `values`
+    /// (whole blocks: `count` rounded up to a multiple of the block size).
+    #[inline(always)]
+    pub(crate) fn set_component(&mut self, i: usize, values: &[f64]) {
+        let (whole, rest) = values.as_chunks::<BLOCK_POINTS>();
+        debug_assert!(rest.is_empty() && whole.len() == self.data.len() / self.dim.max(1));
+        for (block, chunk) in self.blocks_mut().zip(whole) {
+            block[i] = *chunk;
+        }
+    }
+
+    /// The number of values [`PointBlocks::set_component`] takes.
+    pub(crate) fn padded_count(&self) -> usize {
+        self.count.div_ceil(BLOCK_POINTS) * BLOCK_POINTS
+    }
+
     /// Copies `point` into the padding lanes.
     fn pad_with(&mut self, point: &[f64]) {
         let (first_pad, dim) = (self.count % BLOCK_POINTS, self.dim);
@@ -124,5 +140,15 @@ mod tests {
         let mut again = PointBlocks::new(dim, count);
         again.load_columns(&stored, &[-1.0, -2.0, -3.0]);
         assert_eq!(again.values(), points.values());
+
+        // Component by component, padding included.
+        let mut set = PointBlocks::new(dim, count);
+        assert_eq!(set.padded_count(), 16);
+        for i in 0..dim {
+            let row: Vec<f64> =
+                (0..16).map(|p| if p < count { (10 * p + i) as f64 } else { -1.0 - i as f64 }).collect();
+            set.set_component(i, &row);
+        }
+        assert_eq!(set.values(), points.values());
     }
 }

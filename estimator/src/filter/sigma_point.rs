@@ -21,6 +21,7 @@ use crate::filter::covariance_root::CovarianceRoot;
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
+use crate::linalg::Lanes;
 use crate::linalg::{axpy, symmetrize};
 use crate::model::Model;
 use crate::noise::Noise;
@@ -101,9 +102,9 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
         &self.points
     }
 
-    /// The time update (compiled once for the baseline CPU and once with AVX2, see `steps_with_avx2!`).
+    /// The time update (compiled once for the baseline CPU and once with AVX2 and FMA, see `steps_with_avx2!`).
     #[inline(always)]
-    fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+    fn predict_body<L: Lanes>(&mut self, _lanes: L, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
         self.spread(Stage::Predict)?;
         let n = self.core.n();
@@ -127,9 +128,9 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
         Ok(())
     }
 
-    /// The measurement update (compiled once for the baseline CPU and once with AVX2).
+    /// The measurement update (compiled once for the baseline CPU and once with AVX2 and FMA).
     #[inline(always)]
-    fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
+    fn update_body<L: Lanes>(&mut self, _lanes: L, z: &[f64]) -> Result<(), FilterError> {
         let mv = self.core.begin_update(z)?;
         if mv == 0 {
             self.core.innovation.record_none();

@@ -38,8 +38,8 @@ use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Tria};
-use crate::model::{Model, BLOCK_POINTS};
+use crate::linalg::{lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Lanes, Tria};
+use crate::model::Model;
 use crate::noise::{lower_square_root, Noise};
 
 /// SRCKF. Keeps running where rounding would make the CKF's `P` indefinite.
@@ -49,6 +49,13 @@ pub struct SquareRootCubature<M> {
     /// `S`, lower triangular with a non-negative diagonal.
     s: DMatrix<f64>,
     s_next: DMatrix<f64>,
+    /// `Sᵀ`: column `i` is row `i` of `S`, which the points and the update
+    /// compound take whole.
+    s_t: DMatrix<f64>,
+    /// One component of every cubature point, padding included (see `spread`).
+    point_row: Vec<f64>,
+    /// Coefficients of the linear combinations in the update (`max(n, m)`).
+    coefficients: Vec<f64>,
     /// The `2n` cubature points.
     xs: PointBlocks,
     /// The propagated points.
@@ -94,6 +101,9 @@ impl<M: Model> SquareRootCubature<M> {
         let mut filter = Self {
             s: DMatrix::zeros(n, n),
             s_next: DMatrix::zeros(n, n),
+            s_t: DMatrix::zeros(n, n),
+            point_row: vec![0.0; PointBlocks::new(0, 2 * n).padded_count()],
+            coefficients: vec![0.0; n.max(m)],
             xs: PointBlocks::new(n, 2 * n),
             ys: PointBlocks::new(n, 2 * n),
             predict_compound: Tria::upper_on_top(3 * n, n),
@@ -135,36 +145,33 @@ impl<M: Model> SquareRootCubature<M> {
         let root = lower_square_root("initial covariance", p0)?;
         debug_assert_eq!(root.nrows(), n);
         self.s.copy_from(&root);
+        self.s_t.copy_from(&root.transpose());
         Ok(())
     }
 
     /// Spreads the points `x̂ + √n·S·eⱼ` (point `j`) and `x̂ − √n·S·eⱼ` (point
-    /// `n + j`) into their blocks; the padding holds `x̂`.
+    /// `n + j`) into their blocks, component by component: component `r` of
+    /// the points is `x̂ᵣ ± √n·(row r of S)`, contiguous in `Sᵀ`. The padding holds `x̂`.
     #[inline(always)]
     fn spread(&mut self) {
         let n = self.core.n();
         let c = (n as f64).sqrt();
-        let (x, s) = (self.core.x.as_slice(), self.s.as_slice());
-        for (b, block) in self.xs.blocks_mut().enumerate() {
-            for l in 0..BLOCK_POINTS {
-                let p = b * BLOCK_POINTS + l;
-                if p < 2 * n {
-                    let (j, sign) = if p < n { (p, c) } else { (p - n, -c) };
-                    for ((row, &xi), &si) in block.iter_mut().zip(x).zip(&s[j * n..(j + 1) * n]) {
-                        row[l] = xi + sign * si;
-                    }
-                } else {
-                    for (row, &xi) in block.iter_mut().zip(x) {
-                        row[l] = xi;
-                    }
-                }
+        let (x, s_t, row) = (self.core.x.as_slice(), self.s_t.as_slice(), self.point_row.as_mut_slice());
+        for (r, (&x_r, s_r)) in x.iter().zip(s_t.chunks_exact(n)).enumerate() {
+            let (plus, rest) = row.split_at_mut(n);
+            let (minus, padding) = rest.split_at_mut(n);
+            for ((p, m), &s) in plus.iter_mut().zip(minus.iter_mut()).zip(s_r) {
+                *p = x_r + c * s;
+                *m = x_r - c * s;
             }
+            padding.fill(x_r);
+            self.xs.set_component(r, row);
         }
     }
 
-    /// The time update (compiled once for the baseline CPU and once with AVX2, see `steps_with_avx2!`).
+    /// The time update (compiled once for the baseline CPU and once with AVX2 and FMA, see `steps_with_avx2!`).
     #[inline(always)]
-    fn predict_body(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError> {
+    fn predict_body<L: Lanes>(&mut self, _lanes: L, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
         self.spread();
         let n = self.core.n();
@@ -194,15 +201,16 @@ impl<M: Model> SquareRootCubature<M> {
         }
         self.predict_compound.factor(n, self.s_next.as_mut_slice(), n);
         ensure_finite(self.s_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
+        self.predict_compound.write_rows(n, self.s_t.as_mut_slice(), n);
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.s, &mut self.s_next);
         self.core.t = t + dt;
         Ok(())
     }
 
-    /// The measurement update (compiled once for the baseline CPU and once with AVX2).
+    /// The measurement update (compiled once for the baseline CPU and once with AVX2 and FMA).
     #[inline(always)]
-    fn update_body(&mut self, z: &[f64]) -> Result<(), FilterError> {
+    fn update_body<L: Lanes>(&mut self, lanes: L, z: &[f64]) -> Result<(), FilterError> {
         let mv = self.core.begin_update(z)?;
         if mv == 0 {
             self.core.innovation.record_none();
@@ -262,19 +270,19 @@ impl<M: Model> SquareRootCubature<M> {
         }
         self.zz_compound.factor(mv, self.s_zz.as_mut_slice(), m);
 
-        // P_xz = χ·γᵀ = S·D̃ᵀ (the points are x̂⁻ ± √n·S·eⱼ): a triangular
-        // product. Then W = P_xz·S_zz⁻ᵀ·S_zz⁻¹ by two triangular solves from the right.
+        // P_xz = χ·γᵀ = S·D̃ᵀ (the points are x̂⁻ ± √n·S·eⱼ): column a is the
+        // combination of S's columns with row a of D̃. Then W = P_xz·S_zz⁻ᵀ·S_zz⁻¹
+        // by two triangular solves from the right.
         let s = self.s.as_slice();
         let gain = self.gain.as_mut_slice();
         for (p_a, d) in gain.chunks_exact_mut(n).zip(d_t.chunks_exact(n)).take(mv) {
             p_a.fill(0.0);
-            for (j, &d_j) in d.iter().enumerate() {
-                axpy(d_j, &s[j * n + j..(j + 1) * n], &mut p_a[j..]);
-            }
+            lanes.combine(p_a, d, s, n);
         }
         let s_zz = self.s_zz.as_slice();
-        let solved =
-            solve_right_lower_transposed(s_zz, m, mv, gain, n, n) && solve_right_lower(s_zz, m, mv, gain, n, n);
+        let scratch = self.coefficients.as_mut_slice();
+        let solved = solve_right_lower_transposed(lanes, s_zz, m, mv, gain, n, n, scratch)
+            && solve_right_lower(lanes, s_zz, m, mv, gain, n, n, scratch);
         if !solved {
             return Err(FilterError::NotPositiveDefinite {
                 stage: Stage::Update,
@@ -291,17 +299,13 @@ impl<M: Model> SquareRootCubature<M> {
         let gain = self.gain.as_slice();
         let x_next = self.core.x_next.as_mut_slice();
         x_next.copy_from_slice(self.core.x.as_slice());
-        for (w_a, &nu_a) in gain.chunks_exact(n).zip(&self.nu.as_slice()[..mv]) {
-            axpy(nu_a, w_a, x_next);
-        }
+        lanes.combine(x_next, &self.nu.as_slice()[..mv], gain, n);
 
-        // W·M (M lower triangular), column by column.
+        // W·M (M lower triangular): column k combines W's columns k.. with M's column k.
         let w_m = self.w_m.as_mut_slice();
-        for (k, out) in w_m.chunks_exact_mut(n).enumerate() {
+        for (k, out) in w_m.chunks_exact_mut(n).enumerate().take(mv) {
             out.fill(0.0);
-            for (a, w_a) in gain.chunks_exact(n).enumerate().take(mv).skip(k) {
-                axpy(m_root[k * m + a], w_a, out);
-            }
+            lanes.combine(out, &m_root[k * m + k..k * m + mv], &gain[k * n..], n);
         }
         let w_m = self.w_m.as_slice();
 
@@ -309,15 +313,17 @@ impl<M: Model> SquareRootCubature<M> {
         // each pair of columns (j, n + j) rotated by 45°, which leaves A·Aᵀ
         // unchanged: the differences give S − W·D̃, the sums −W·Σ̃, and
         // [−W·Σ̃, W·S_R] has the same Gram matrix as W·M. 2n + m columns become n + m.
-        // Column q of the transposed compound is row q of both blocks.
+        // Column q of the transposed compound is row q of both blocks: row q
+        // of S (column q of Sᵀ) less the combination of D̃'s rows with row q of W.
+        let s_t = self.s_t.as_slice();
         for q in 0..n {
             let (top, bottom) = self.update_compound.column_mut(q).split_at_mut(n);
-            for (j, t) in top.iter_mut().enumerate() {
-                *t = s[j * n + q];
+            top.copy_from_slice(&s_t[q * n..(q + 1) * n]);
+            let c = &mut scratch[..mv];
+            for (a, c) in c.iter_mut().enumerate() {
+                *c = -gain[a * n + q];
             }
-            for (a, d) in d_t.chunks_exact(n).enumerate().take(mv) {
-                axpy(-gain[a * n + q], d, top);
-            }
+            lanes.combine(top, c, d_t, n);
             for (k, v) in bottom.iter_mut().enumerate() {
                 *v = if k < mv { w_m[k * n + q] } else { 0.0 };
             }
@@ -325,6 +331,7 @@ impl<M: Model> SquareRootCubature<M> {
         self.update_compound.factor(n, self.s_next.as_mut_slice(), n);
         ensure_finite(self.core.x_next.as_slice(), Stage::Update, "updated state")?;
         ensure_finite(self.s_next.as_slice(), Stage::Update, "updated square-root covariance S")?;
+        self.update_compound.write_rows(n, self.s_t.as_mut_slice(), n);
 
         // Diagnostics: S_innovation = S_zz·S_zzᵀ on the used rows.
         lower_gram(self.s_zz.as_slice(), m, mv, self.s_innovation.as_mut_slice(), m);
@@ -372,6 +379,7 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
     fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
         let covariance = self.core.restore(FilterKind::SrCkf, snapshot)?;
         self.s.copy_from_slice(covariance);
+        self.s_t.copy_from(&self.s.transpose());
         Ok(())
     }
 

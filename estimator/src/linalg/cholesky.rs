@@ -1,6 +1,7 @@
 //! Cholesky factorisation `A = L·Lᵀ` and the two triangular solves that use it.
 
 use super::axpy;
+use super::lanes::Lanes;
 
 /// Overwrites the lower triangle of the `n×n` matrix in `a` (leading dimension
 /// `ld`) by its Cholesky factor `L` and zeroes the strict upper triangle.
@@ -58,16 +59,21 @@ pub(crate) fn solve_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: u
 }
 
 /// Solves `X·Lᵀ = B` in place for a lower-triangular `L` (`n×n`, leading
-/// dimension `ldl`) and `B` of `rows × n` (leading dimension `ldb`), column by
-/// column (each step an axpy down a contiguous column). Returns `false` on a
-/// zero diagonal.
-pub(crate) fn solve_right_lower_transposed(
+/// dimension `ldl`) and `B` of `rows × n` (leading dimension `ldb ≥ rows`),
+/// column by column, each a linear combination of the columns before it
+/// ([`Lanes::combine`]); `scratch` takes `n` coefficients. Returns `false` on
+/// a zero diagonal.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn solve_right_lower_transposed<L: Lanes>(
+    lanes: L,
     l: &[f64],
     ldl: usize,
     n: usize,
     b: &mut [f64],
     ldb: usize,
     rows: usize,
+    scratch: &mut [f64],
 ) -> bool {
     // Column a of X·Lᵀ is Σ_{c ≤ a} L[a, c]·X[:, c]: forward over the columns.
     for a in 0..n {
@@ -77,12 +83,11 @@ pub(crate) fn solve_right_lower_transposed(
         }
         let (done, rest) = b.split_at_mut(a * ldb);
         let x_a = &mut rest[..rows];
-        for c in 0..a {
-            let l_ac = l[c * ldl + a];
-            if l_ac != 0.0 {
-                axpy(-l_ac, &done[c * ldb..c * ldb + rows], x_a);
-            }
+        let c = &mut scratch[..a];
+        for (k, c) in c.iter_mut().enumerate() {
+            *c = -l[k * ldl + a];
         }
+        lanes.combine(x_a, c, done, ldb);
         for v in x_a.iter_mut() {
             *v /= d;
         }
@@ -91,7 +96,18 @@ pub(crate) fn solve_right_lower_transposed(
 }
 
 /// Solves `X·L = B` in place (see [`solve_right_lower_transposed`] for the layout).
-pub(crate) fn solve_right_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: usize, rows: usize) -> bool {
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn solve_right_lower<L: Lanes>(
+    lanes: L,
+    l: &[f64],
+    ldl: usize,
+    n: usize,
+    b: &mut [f64],
+    ldb: usize,
+    rows: usize,
+    scratch: &mut [f64],
+) -> bool {
     // Column a of X·L is Σ_{c ≥ a} L[c, a]·X[:, c]: backward over the columns.
     for a in (0..n).rev() {
         let d = l[a * ldl + a];
@@ -100,13 +116,11 @@ pub(crate) fn solve_right_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], 
         }
         let (head, later) = b.split_at_mut((a + 1) * ldb);
         let x_a = &mut head[a * ldb..a * ldb + rows];
-        for c in a + 1..n {
-            let l_ca = l[a * ldl + c];
-            if l_ca != 0.0 {
-                let off = (c - a - 1) * ldb;
-                axpy(-l_ca, &later[off..off + rows], x_a);
-            }
+        let c = &mut scratch[..n - a - 1];
+        for (c, &l_ca) in c.iter_mut().zip(&l[a * ldl + a + 1..a * ldl + n]) {
+            *c = -l_ca;
         }
+        lanes.combine(x_a, c, later, ldb);
         for v in x_a.iter_mut() {
             *v /= d;
         }
@@ -117,6 +131,7 @@ pub(crate) fn solve_right_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::linalg::Portable;
     use nalgebra::DMatrix;
 
     fn spd(n: usize) -> DMatrix<f64> {
@@ -161,13 +176,14 @@ mod tests {
         cholesky_in_place(l.as_mut_slice(), 6, 6).unwrap();
         let b = DMatrix::from_fn(9, 4, |i, j| (i as f64) * 0.5 - j as f64);
         let mut x = b.clone();
-        assert!(solve_right_lower_transposed(l.as_slice(), 6, 4, x.as_mut_slice(), 9, 9));
-        assert!(solve_right_lower(l.as_slice(), 6, 4, x.as_mut_slice(), 9, 9));
+        let scratch = &mut [0.0; 6];
+        assert!(solve_right_lower_transposed(Portable, l.as_slice(), 6, 4, x.as_mut_slice(), 9, 9, scratch));
+        assert!(solve_right_lower(Portable, l.as_slice(), 6, 4, x.as_mut_slice(), 9, 9, scratch));
         let a4 = a.view((0, 0), (4, 4)).into_owned();
         assert!((&x * &a4 - &b).norm() < 1e-10 * b.norm());
         let mut singular = DMatrix::<f64>::zeros(2, 2);
         singular[(1, 1)] = 1.0;
-        assert!(!solve_right_lower_transposed(singular.as_slice(), 2, 2, x.as_mut_slice(), 9, 9));
-        assert!(!solve_right_lower(singular.as_slice(), 2, 2, x.as_mut_slice(), 9, 9));
+        assert!(!solve_right_lower_transposed(Portable, singular.as_slice(), 2, 2, x.as_mut_slice(), 9, 9, scratch));
+        assert!(!solve_right_lower(Portable, singular.as_slice(), 2, 2, x.as_mut_slice(), 9, 9, scratch));
     }
 }

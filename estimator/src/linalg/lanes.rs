@@ -1,15 +1,17 @@
-//! The inner loops of the dense kernels over chunks of [`LANES`] `f64`, in two
-//! implementations: portable Rust, and AVX2 intrinsics chosen at run time.
+//! The inner loops of the dense kernels, in two implementations: portable
+//! Rust, and AVX2 with FMA intrinsics chosen at run time.
 //!
-//! Both do the same roundings in the same order (a product, then a sum, per
-//! lane; no fused multiply-add; lanes summed in a fixed order), so a filter
-//! gives bit-for-bit the same numbers on every x86-64 CPU, with or without AVX2.
-//! The compiler's own vectoriser, given the same loops under AVX2, packs
-//! across columns with shuffles: it took 2.2× the instructions of these
-//! intrinsics for the Householder QR (callgrind, `examples/step_loop.rs`).
+//! The two agree to rounding, not bit for bit: the AVX2 path fuses each
+//! multiply-add (one rounding instead of two) and sums its lanes in its own
+//! order. Each path on its own is deterministic, so a filter gives the same
+//! numbers run after run and on every CPU that takes the same path (every
+//! x86-64 CPU since 2013 has AVX2 and FMA). The compiler's own vectoriser,
+//! given the same loops under AVX2, packs across columns with shuffles: it
+//! took 2.2× the instructions of these intrinsics for the Householder QR
+//! (callgrind, `examples/step_loop.rs`).
 //!
 //! The AVX2 implementation is reached only through an [`Avx2`] token, which
-//! exists only on a CPU that has AVX2; that is what makes its calls sound.
+//! exists only on a CPU that has AVX2 and FMA; that is what makes its calls sound.
 
 /// `f64` per chunk: two AVX2 registers.
 pub(crate) const LANES: usize = 8;
@@ -20,39 +22,50 @@ pub(crate) const COLUMN_BLOCK: usize = 4;
 /// One chunk of lanes.
 pub(crate) type Chunk = [f64; LANES];
 
-/// The inner loops. Slices are whole numbers of chunks (their length a
-/// multiple of [`LANES`]); `a` and `v` have equal lengths.
+/// The inner loops. Except for [`Lanes::combine`], slices are whole numbers
+/// of chunks (their length a multiple of [`LANES`]) and paired slices have
+/// equal lengths.
 pub(crate) trait Lanes: Copy {
-    /// Per-lane sums of `v[i]·cᵦ[i]` for [`COLUMN_BLOCK`] columns.
-    fn products(self, v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [Chunk; COLUMN_BLOCK];
-    /// Per-lane sums of `a[i]·b[i]`.
-    fn product(self, a: &[f64], b: &[f64]) -> Chunk;
+    /// `vᵀ·cᵦ` for [`COLUMN_BLOCK`] columns.
+    fn dots(self, v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [f64; COLUMN_BLOCK];
+    /// `aᵀ·b`.
+    fn dot(self, a: &[f64], b: &[f64]) -> f64;
     /// `x[i] −= c·v[i]`.
     fn sub_scaled(self, x: &mut [f64], c: f64, v: &[f64]);
-    /// Per-lane sums of `vₖ[i]·aᵦ[i]` for two vectors and two columns, `[k][b]`.
-    fn products_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2];
+    /// `vₖᵀ·aᵦ` for two vectors and two columns, `[k][b]`.
+    fn dots_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[f64; 2]; 2];
     /// `x[i] = (x[i] − c₀·v₀[i]) − c₁·v₁[i]`.
     fn sub_scaled_2(self, x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]);
+    /// `out[i] += Σₜ c[t]·columns[t·ld + i]`, the terms added in order, for
+    /// any length of `out`: a linear combination of columns of a column-major
+    /// matrix (leading dimension `ld`), kept in registers across the terms.
+    fn combine(self, out: &mut [f64], c: &[f64], columns: &[f64], ld: usize);
 }
 
 /// The lanes' sum in a fixed (pairwise) order.
 #[inline(always)]
-pub(crate) fn sum_lanes(acc: &Chunk) -> f64 {
+fn sum_lanes(acc: &Chunk) -> f64 {
     ((acc[0] + acc[4]) + (acc[2] + acc[6])) + ((acc[1] + acc[5]) + (acc[3] + acc[7]))
+}
+
+/// The slice `columns` must reach for `terms` columns of `len` entries.
+#[inline(always)]
+fn check_columns(terms: usize, len: usize, columns: &[f64], ld: usize) {
+    assert!(
+        terms == 0 || columns.len() >= (terms - 1) * ld + len,
+        "combine: {terms} columns of {len} with leading dimension {ld} need more than {} values",
+        columns.len()
+    );
 }
 
 /// Plain Rust loops, for any CPU.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Portable;
 
-impl Lanes for Portable {
+impl Portable {
+    /// Per-lane sums of `a[i]·b[i]`.
     #[inline(always)]
-    fn products(self, v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [Chunk; COLUMN_BLOCK] {
-        c.map(|c| self.product(v, c))
-    }
-
-    #[inline(always)]
-    fn product(self, a: &[f64], b: &[f64]) -> Chunk {
+    fn product(a: &[f64], b: &[f64]) -> Chunk {
         let mut acc = [0.0; LANES];
         for (x, y) in a.chunks_exact(LANES).zip(b.chunks_exact(LANES)) {
             for l in 0..LANES {
@@ -60,6 +73,18 @@ impl Lanes for Portable {
             }
         }
         acc
+    }
+}
+
+impl Lanes for Portable {
+    #[inline(always)]
+    fn dots(self, v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [f64; COLUMN_BLOCK] {
+        c.map(|c| sum_lanes(&Self::product(v, c)))
+    }
+
+    #[inline(always)]
+    fn dot(self, a: &[f64], b: &[f64]) -> f64 {
+        sum_lanes(&Self::product(a, b))
     }
 
     #[inline(always)]
@@ -72,8 +97,8 @@ impl Lanes for Portable {
     }
 
     #[inline(always)]
-    fn products_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2] {
-        [[self.product(v[0], a[0]), self.product(v[0], a[1])], [self.product(v[1], a[0]), self.product(v[1], a[1])]]
+    fn dots_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[f64; 2]; 2] {
+        [[self.dot(v[0], a[0]), self.dot(v[0], a[1])], [self.dot(v[1], a[0]), self.dot(v[1], a[1])]]
     }
 
     #[inline(always)]
@@ -85,42 +110,53 @@ impl Lanes for Portable {
             }
         }
     }
+
+    #[inline(always)]
+    fn combine(self, out: &mut [f64], c: &[f64], columns: &[f64], ld: usize) {
+        let len = out.len();
+        check_columns(c.len(), len, columns, ld);
+        for (t, &ct) in c.iter().enumerate() {
+            for (o, &v) in out.iter_mut().zip(&columns[t * ld..t * ld + len]) {
+                *o += ct * v;
+            }
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) use avx2::Avx2;
 
-/// Runs a function body compiled with AVX2 enabled when the CPU has it, and
-/// the same body compiled for the baseline CPU otherwise. Everything the body
+/// Runs a function body compiled with AVX2 and FMA enabled when the CPU has
+/// them, and the same body compiled for the baseline CPU otherwise; the body
+/// gets the matching [`Lanes`] (`lanes`) for its kernels. Everything the body
 /// inlines (the plain loops of a filter step, a model's block methods marked
-/// `#[inline]`) is then vectorised with AVX2; the arithmetic and its order
-/// are the same in both, so the results are too.
+/// `#[inline]`) is then vectorised with AVX2.
 ///
 /// ```text
-/// with_avx2!(fn<M: Model>(filter: &mut SquareRootCubature<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
-///     filter.update_body(z)
+/// with_avx2!(fn<M: Model>(lanes, filter: &mut SquareRootCubature<M> = self, z: &[f64] = z) -> Result<(), FilterError> {
+///     filter.update_body(lanes, z)
 /// })
 /// ```
 macro_rules! with_avx2 {
-    (fn<$($g:ident: $bound:path),*>($($arg:ident: $t:ty = $val:expr),*) -> $ret:ty $body:block) => {{
+    (fn<$($g:ident: $bound:path),*>($lanes:ident, $($arg:ident: $t:ty = $val:expr),*) -> $ret:ty $body:block) => {{
         #[inline(always)]
-        fn body<$($g: $bound),*>($($arg: $t),*) -> $ret $body
+        fn body<Kernels: $crate::linalg::Lanes, $($g: $bound),*>($lanes: Kernels, $($arg: $t),*) -> $ret $body
         #[cfg(target_arch = "x86_64")]
         let result = if let Some(avx2) = $crate::linalg::Avx2::detect() {
-            #[target_feature(enable = "avx2")]
-            fn run<$($g: $bound),*>(_: $crate::linalg::Avx2, $($arg: $t),*) -> $ret {
-                body($($arg),*)
+            #[target_feature(enable = "avx2,fma")]
+            fn run<$($g: $bound),*>(avx2: $crate::linalg::Avx2, $($arg: $t),*) -> $ret {
+                body(avx2, $($arg),*)
             }
             #[allow(unsafe_code)]
-            // SAFETY: an `Avx2` exists only on a CPU with AVX2.
+            // SAFETY: an `Avx2` exists only on a CPU with AVX2 and FMA.
             unsafe {
                 run(avx2, $($val),*)
             }
         } else {
-            body($($val),*)
+            body($crate::linalg::Portable, $($val),*)
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let result = body($($val),*);
+        let result = body($crate::linalg::Portable, $($val),*);
         result
     }};
 }
@@ -130,34 +166,36 @@ pub(crate) use with_avx2;
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m256d, _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-        _mm256_sub_pd,
+        __m256d, _mm256_add_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,
+        _mm256_hadd_pd, _mm256_loadu_pd, _mm256_permute2f128_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+        _mm_add_pd, _mm_cvtsd_f64, _mm_unpackhi_pd,
     };
 
-    use super::{Chunk, Lanes, COLUMN_BLOCK, LANES};
+    use super::{check_columns, Chunk, Lanes, COLUMN_BLOCK, LANES};
 
-    /// Proof that the CPU has AVX2: only [`Avx2::detect`] makes one.
+    /// Proof that the CPU has AVX2 and FMA: only [`Avx2::detect`] makes one.
     #[derive(Debug, Clone, Copy)]
     pub(crate) struct Avx2(());
 
     impl Avx2 {
-        /// `Some` on a CPU with AVX2.
+        /// `Some` on a CPU with AVX2 and FMA.
         pub(crate) fn detect() -> Option<Self> {
-            std::arch::is_x86_feature_detected!("avx2").then_some(Self(()))
+            (std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma"))
+                .then_some(Self(()))
         }
     }
 
     impl Lanes for Avx2 {
         #[inline(always)]
-        fn products(self, v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [Chunk; COLUMN_BLOCK] {
-            // SAFETY: `self` exists, so the CPU has AVX2.
-            unsafe { products(v, c) }
+        fn dots(self, v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [f64; COLUMN_BLOCK] {
+            // SAFETY: `self` exists, so the CPU has AVX2 and FMA.
+            unsafe { dots(v, c) }
         }
 
         #[inline(always)]
-        fn product(self, a: &[f64], b: &[f64]) -> Chunk {
+        fn dot(self, a: &[f64], b: &[f64]) -> f64 {
             // SAFETY: as above.
-            unsafe { product(a, b) }
+            unsafe { dot(a, b) }
         }
 
         #[inline(always)]
@@ -167,9 +205,9 @@ mod avx2 {
         }
 
         #[inline(always)]
-        fn products_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2] {
+        fn dots_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[f64; 2]; 2] {
             // SAFETY: as above.
-            unsafe { products_2x2(v, a) }
+            unsafe { dots_2x2(v, a) }
         }
 
         #[inline(always)]
@@ -177,20 +215,28 @@ mod avx2 {
             // SAFETY: as above.
             unsafe { sub_scaled_2(x, c, v) }
         }
+
+        #[inline(always)]
+        fn combine(self, out: &mut [f64], c: &[f64], columns: &[f64], ld: usize) {
+            // SAFETY: as above.
+            unsafe { combine(out, c, columns, ld) }
+        }
     }
 
-    /// The two halves of a chunk.
+    /// A chunk as two registers.
+    type Pair = (__m256d, __m256d);
+
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn load(x: &[f64]) -> (__m256d, __m256d) {
+    #[target_feature(enable = "avx2,fma")]
+    fn load(x: &[f64]) -> Pair {
         let x: &Chunk = x.try_into().expect("a whole chunk");
         // SAFETY: `x` holds 8 f64, so both unaligned 4-lane loads stay inside it.
         unsafe { (_mm256_loadu_pd(x.as_ptr()), _mm256_loadu_pd(x.as_ptr().add(4))) }
     }
 
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn store(x: &mut [f64], (lo, hi): (__m256d, __m256d)) {
+    #[target_feature(enable = "avx2,fma")]
+    fn store(x: &mut [f64], (lo, hi): Pair) {
         let x: &mut Chunk = x.try_into().expect("a whole chunk");
         // SAFETY: `x` holds 8 f64, so both unaligned 4-lane stores stay inside it.
         unsafe {
@@ -199,84 +245,165 @@ mod avx2 {
         }
     }
 
+    /// `acc + a·b`, fused, lane by lane.
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn to_chunk(acc: (__m256d, __m256d)) -> Chunk {
-        let mut out = [0.0; LANES];
-        store(&mut out, acc);
+    #[target_feature(enable = "avx2,fma")]
+    fn mul_add(acc: Pair, a: Pair, b: Pair) -> Pair {
+        (_mm256_fmadd_pd(a.0, b.0, acc.0), _mm256_fmadd_pd(a.1, b.1, acc.1))
+    }
+
+    /// `x − c·v`, fused, lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn sub_mul(x: Pair, c: __m256d, v: Pair) -> Pair {
+        (_mm256_fnmadd_pd(c, v.0, x.0), _mm256_fnmadd_pd(c, v.1, x.1))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn zero() -> Pair {
+        (_mm256_setzero_pd(), _mm256_setzero_pd())
+    }
+
+    /// The sums of the lanes of four accumulators, in registers.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn sums4(acc: [Pair; 4]) -> [f64; 4] {
+        let [a, b, c, d] = acc;
+        let (a, b, c, d) =
+            (_mm256_add_pd(a.0, a.1), _mm256_add_pd(b.0, b.1), _mm256_add_pd(c.0, c.1), _mm256_add_pd(d.0, d.1));
+        // [a₀+a₁, b₀+b₁, a₂+a₃, b₂+b₃] and the same for c, d.
+        let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
+        let sums = _mm256_add_pd(_mm256_permute2f128_pd(ab, cd, 0x20), _mm256_permute2f128_pd(ab, cd, 0x31));
+        let mut out = [0.0; 4];
+        // SAFETY: `out` holds 4 f64.
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), sums) };
         out
     }
 
+    /// The sum of the lanes of one accumulator.
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn mul_add(acc: (__m256d, __m256d), a: (__m256d, __m256d), b: (__m256d, __m256d)) -> (__m256d, __m256d) {
-        (_mm256_add_pd(acc.0, _mm256_mul_pd(a.0, b.0)), _mm256_add_pd(acc.1, _mm256_mul_pd(a.1, b.1)))
+    #[target_feature(enable = "avx2,fma")]
+    fn sum1((lo, hi): Pair) -> f64 {
+        let x = _mm256_add_pd(lo, hi);
+        let half = _mm_add_pd(_mm256_castpd256_pd128(x), _mm256_extractf128_pd(x, 1));
+        _mm_cvtsd_f64(_mm_add_pd(half, _mm_unpackhi_pd(half, half)))
     }
 
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn products(v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [Chunk; COLUMN_BLOCK] {
-        let zero = (_mm256_setzero_pd(), _mm256_setzero_pd());
-        let mut acc = [zero; COLUMN_BLOCK];
+    #[target_feature(enable = "avx2,fma")]
+    fn dots(v: &[f64], c: [&[f64]; COLUMN_BLOCK]) -> [f64; COLUMN_BLOCK] {
+        let mut acc = [zero(); COLUMN_BLOCK];
         for (i, vi) in v.chunks_exact(LANES).enumerate() {
             let vi = load(vi);
             for (acc, c) in acc.iter_mut().zip(&c) {
                 *acc = mul_add(*acc, vi, load(&c[i * LANES..(i + 1) * LANES]));
             }
         }
-        acc.map(|a| to_chunk(a))
+        sums4(acc)
     }
 
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn product(a: &[f64], b: &[f64]) -> Chunk {
-        let mut acc = (_mm256_setzero_pd(), _mm256_setzero_pd());
+    #[target_feature(enable = "avx2,fma")]
+    fn dot(a: &[f64], b: &[f64]) -> f64 {
+        let mut acc = zero();
         for (x, y) in a.chunks_exact(LANES).zip(b.chunks_exact(LANES)) {
             acc = mul_add(acc, load(x), load(y));
         }
-        to_chunk(acc)
+        sum1(acc)
     }
 
     #[inline]
-    #[target_feature(enable = "avx2")]
-    fn products_2x2(v: [&[f64]; 2], a: [&[f64]; 2]) -> [[Chunk; 2]; 2] {
-        let zero = (_mm256_setzero_pd(), _mm256_setzero_pd());
-        let mut acc = [[zero; 2]; 2];
+    #[target_feature(enable = "avx2,fma")]
+    fn dots_2x2(v: [&[f64]; 2], a: [&[f64]; 2]) -> [[f64; 2]; 2] {
+        let mut acc = [zero(); 4];
         let chunks = v[0].chunks_exact(LANES).zip(v[1].chunks_exact(LANES));
         let chunks = chunks.zip(a[0].chunks_exact(LANES).zip(a[1].chunks_exact(LANES)));
         for ((v0, v1), (a0, a1)) in chunks {
             let (v0, v1, a0, a1) = (load(v0), load(v1), load(a0), load(a1));
-            acc[0][0] = mul_add(acc[0][0], v0, a0);
-            acc[0][1] = mul_add(acc[0][1], v0, a1);
-            acc[1][0] = mul_add(acc[1][0], v1, a0);
-            acc[1][1] = mul_add(acc[1][1], v1, a1);
+            acc[0] = mul_add(acc[0], v0, a0);
+            acc[1] = mul_add(acc[1], v0, a1);
+            acc[2] = mul_add(acc[2], v1, a0);
+            acc[3] = mul_add(acc[3], v1, a1);
         }
-        let mut out = [[[0.0; LANES]; 2]; 2];
-        for (out, acc) in out.iter_mut().zip(&acc) {
-            *out = [to_chunk(acc[0]), to_chunk(acc[1])];
-        }
-        out
+        let [s00, s01, s10, s11] = sums4(acc);
+        [[s00, s01], [s10, s11]]
     }
 
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     fn sub_scaled_2(x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]) {
         let (c0, c1) = (_mm256_set1_pd(c[0]), _mm256_set1_pd(c[1]));
         let chunks = x.chunks_exact_mut(LANES).zip(v[0].chunks_exact(LANES).zip(v[1].chunks_exact(LANES)));
         for (x, (v0, v1)) in chunks {
-            let (xv, v0, v1) = (load(x), load(v0), load(v1));
-            let once = (_mm256_sub_pd(xv.0, _mm256_mul_pd(c0, v0.0)), _mm256_sub_pd(xv.1, _mm256_mul_pd(c0, v0.1)));
-            store(x, (_mm256_sub_pd(once.0, _mm256_mul_pd(c1, v1.0)), _mm256_sub_pd(once.1, _mm256_mul_pd(c1, v1.1))));
+            let once = sub_mul(load(x), c0, load(v0));
+            store(x, sub_mul(once, c1, load(v1)));
         }
     }
 
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     fn sub_scaled(x: &mut [f64], c: f64, v: &[f64]) {
         let c = _mm256_set1_pd(c);
         for (x, v) in x.chunks_exact_mut(LANES).zip(v.chunks_exact(LANES)) {
-            let (xv, vv) = (load(x), load(v));
-            store(x, (_mm256_sub_pd(xv.0, _mm256_mul_pd(c, vv.0)), _mm256_sub_pd(xv.1, _mm256_mul_pd(c, vv.1))));
+            store(x, sub_mul(load(x), c, load(v)));
+        }
+    }
+
+    /// `R` registers of `out` from `at`, with every term added in them.
+    ///
+    /// # Safety
+    /// `out[at..at + 4R]` and `columns[t·ld + at..t·ld + at + 4R]` for every
+    /// term `t < c.len()` lie inside their slices.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn combine_registers<const R: usize>(out: &mut [f64], at: usize, c: &[f64], columns: &[f64], ld: usize) {
+        let (o, p) = (out.as_mut_ptr(), columns.as_ptr());
+        // SAFETY: the caller's bounds.
+        unsafe {
+            // Loops, not `array::from_fn`: a closure would be compiled without AVX2.
+            let mut acc = [_mm256_setzero_pd(); R];
+            for (r, acc) in acc.iter_mut().enumerate() {
+                *acc = _mm256_loadu_pd(o.add(at + 4 * r));
+            }
+            for (t, &ct) in c.iter().enumerate() {
+                let ct = _mm256_set1_pd(ct);
+                let col = p.add(t * ld + at);
+                for (r, acc) in acc.iter_mut().enumerate() {
+                    *acc = _mm256_fmadd_pd(ct, _mm256_loadu_pd(col.add(4 * r)), *acc);
+                }
+            }
+            for (r, acc) in acc.iter().enumerate() {
+                _mm256_storeu_pd(o.add(at + 4 * r), *acc);
+            }
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn combine(out: &mut [f64], c: &[f64], columns: &[f64], ld: usize) {
+        let len = out.len();
+        check_columns(c.len(), len, columns, ld);
+        let mut at = 0;
+        while at + 16 <= len {
+            // SAFETY (here and below): `at + 4R ≤ len`, and `check_columns` holds.
+            unsafe { combine_registers::<4>(out, at, c, columns, ld) };
+            at += 16;
+        }
+        if at + 8 <= len {
+            // SAFETY: as above.
+            unsafe { combine_registers::<2>(out, at, c, columns, ld) };
+            at += 8;
+        }
+        if at + 4 <= len {
+            // SAFETY: as above.
+            unsafe { combine_registers::<1>(out, at, c, columns, ld) };
+            at += 4;
+        }
+        for (i, o) in out.iter_mut().enumerate().skip(at) {
+            for (t, &ct) in c.iter().enumerate() {
+                *o = ct.mul_add(columns[t * ld + i], *o);
+            }
         }
     }
 }
@@ -289,41 +416,66 @@ mod tests {
         (0..len).map(|i| ((i as u64 * 2654435761 + seed * 97) % 1000) as f64 / 37.0 - 13.0).collect()
     }
 
+    /// `a` and `b` agree to rounding, relative to the size of what was summed.
+    fn close(a: &[f64], b: &[f64], scale: f64) -> bool {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-14 * scale)
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn avx2_equals_portable_bit_for_bit() {
+    fn avx2_agrees_with_portable_to_rounding() {
         let Some(avx2) = Avx2::detect() else {
-            eprintln!("no AVX2 on this CPU: only the portable path runs here");
+            eprintln!("no AVX2 and FMA on this CPU: only the portable path runs here");
             return;
         };
         for chunks in [1, 3, 7] {
             let len = chunks * LANES;
+            // |entries| ≤ 14, so sums of `len` products stay below 200·len.
+            let scale = 200.0 * len as f64;
             let v = data(len, 1);
             let cols: Vec<Vec<f64>> = (0..COLUMN_BLOCK as u64).map(|b| data(len, b + 2)).collect();
             let c: [&[f64]; COLUMN_BLOCK] = std::array::from_fn(|b| cols[b].as_slice());
-            assert_eq!(avx2.products(&v, c), Portable.products(&v, c));
-            assert_eq!(avx2.product(&v, &cols[0]), Portable.product(&v, &cols[0]));
+            assert!(close(&avx2.dots(&v, c), &Portable.dots(&v, c), scale));
+            assert!(close(&[avx2.dot(&v, &cols[0])], &[Portable.dot(&v, &cols[0])], scale));
             let (mut x1, mut x2) = (cols[1].clone(), cols[1].clone());
             avx2.sub_scaled(&mut x1, 0.37, &v);
             Portable.sub_scaled(&mut x2, 0.37, &v);
-            assert_eq!(x1, x2);
+            assert!(close(&x1, &x2, 20.0));
             let (v2, a2) = ([v.as_slice(), c[1]], [c[2], c[3]]);
-            assert_eq!(avx2.products_2x2(v2, a2), Portable.products_2x2(v2, a2));
+            let (d1, d2) = (avx2.dots_2x2(v2, a2), Portable.dots_2x2(v2, a2));
+            assert!(close(d1.as_flattened(), d2.as_flattened(), scale));
             let (mut x1, mut x2) = (cols[0].clone(), cols[0].clone());
             avx2.sub_scaled_2(&mut x1, [0.37, -1.3], v2);
             Portable.sub_scaled_2(&mut x2, [0.37, -1.3], v2);
-            assert_eq!(x1, x2);
+            assert!(close(&x1, &x2, 40.0));
+        }
+        // Every length, so that each register count and the scalar tail run.
+        for len in 0..40 {
+            let ld = len + 3;
+            let columns = data(5 * ld, 9);
+            let c = [0.5, -1.25, 3.0, 0.0, -0.75];
+            let (mut x1, mut x2) = (data(len, 4), data(len, 4));
+            avx2.combine(&mut x1, &c, &columns, ld);
+            Portable.combine(&mut x2, &c, &columns, ld);
+            assert!(close(&x1, &x2, 100.0), "len {len}");
         }
     }
 
     #[test]
-    fn lanes_hold_the_per_lane_sums() {
+    fn kernels_compute_what_they_say() {
         let (a, b) = (data(16, 1), data(16, 2));
-        let acc = Portable.product(&a, &b);
-        for l in 0..LANES {
-            assert_eq!(acc[l], a[l] * b[l] + a[LANES + l] * b[LANES + l]);
-        }
         let total: f64 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
-        assert!((sum_lanes(&acc) - total).abs() < 1e-12 * total.abs().max(1.0));
+        assert!((Portable.dot(&a, &b) - total).abs() < 1e-12 * total.abs().max(1.0));
+        // combine: out + Σ c[t]·column t, columns 4 apart with 3-entry columns.
+        let columns: Vec<f64> = (0..12).map(f64::from).collect();
+        let mut out = [1.0, 2.0, 3.0];
+        Portable.combine(&mut out, &[2.0, -1.0, 0.5], &columns, 4);
+        assert_eq!(out, [1.0 + 0.0 - 4.0 + 4.0, 2.0 + 2.0 - 5.0 + 4.5, 3.0 + 4.0 - 6.0 + 5.0]);
+    }
+
+    #[test]
+    #[should_panic(expected = "combine: 3 columns of 3")]
+    fn combine_refuses_columns_that_are_too_short() {
+        Portable.combine(&mut [0.0; 3], &[1.0; 3], &[0.0; 10], 4);
     }
 }

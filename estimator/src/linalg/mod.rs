@@ -13,9 +13,9 @@ mod symmetric_eigen;
 mod tria;
 
 pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_right_lower, solve_right_lower_transposed};
-pub(crate) use lanes::with_avx2;
 #[cfg(target_arch = "x86_64")]
 pub(crate) use lanes::Avx2;
+pub(crate) use lanes::{with_avx2, Lanes, Portable};
 pub use symmetric_eigen::SymmetricEigen;
 pub(crate) use tria::Tria;
 
