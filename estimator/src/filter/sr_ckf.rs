@@ -48,10 +48,10 @@ pub struct SquareRootCubature<M> {
     core: Core<M>,
     /// `S`, lower triangular with a non-negative diagonal.
     s: DMatrix<f64>,
-    s_next: DMatrix<f64>,
     /// `Sᵀ`: column `i` is row `i` of `S`, which the points and the update
-    /// compound take whole.
+    /// compound take whole. `Tria` writes it directly; `S` is its transpose.
     s_t: DMatrix<f64>,
+    s_t_next: DMatrix<f64>,
     /// One component of every cubature point, padding included (see `spread`).
     point_row: Vec<f64>,
     /// Coefficients of the linear combinations in the update (`max(n, m)`).
@@ -100,8 +100,8 @@ impl<M: Model> SquareRootCubature<M> {
         let (n, m) = (core.n(), core.m());
         let mut filter = Self {
             s: DMatrix::zeros(n, n),
-            s_next: DMatrix::zeros(n, n),
             s_t: DMatrix::zeros(n, n),
+            s_t_next: DMatrix::zeros(n, n),
             point_row: vec![0.0; PointBlocks::new(0, 2 * n).padded_count()],
             coefficients: vec![0.0; n.max(m)],
             xs: PointBlocks::new(n, 2 * n),
@@ -171,7 +171,7 @@ impl<M: Model> SquareRootCubature<M> {
 
     /// The time update (compiled once for the baseline CPU and once with AVX2 and FMA, see `steps_with_avx2!`).
     #[inline(always)]
-    fn predict_body<L: Lanes>(&mut self, _lanes: L, u: &[f64], dt: f64) -> Result<(), FilterError> {
+    fn predict_body<L: Lanes>(&mut self, lanes: L, u: &[f64], dt: f64) -> Result<(), FilterError> {
         self.core.begin_predict(u, dt)?;
         self.spread();
         let n = self.core.n();
@@ -199,11 +199,10 @@ impl<M: Model> SquareRootCubature<M> {
                 *c = sq[k * n + r];
             }
         }
-        self.predict_compound.factor(n, self.s_next.as_mut_slice(), n);
-        ensure_finite(self.s_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
-        self.predict_compound.write_rows(n, self.s_t.as_mut_slice(), n);
+        self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
+        ensure_finite(self.s_t_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
+        self.commit_factor(lanes);
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
-        std::mem::swap(&mut self.s, &mut self.s_next);
         self.core.t = t + dt;
         Ok(())
     }
@@ -328,10 +327,9 @@ impl<M: Model> SquareRootCubature<M> {
                 *v = if k < mv { w_m[k * n + q] } else { 0.0 };
             }
         }
-        self.update_compound.factor(n, self.s_next.as_mut_slice(), n);
+        self.update_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
         ensure_finite(self.core.x_next.as_slice(), Stage::Update, "updated state")?;
-        ensure_finite(self.s_next.as_slice(), Stage::Update, "updated square-root covariance S")?;
-        self.update_compound.write_rows(n, self.s_t.as_mut_slice(), n);
+        ensure_finite(self.s_t_next.as_slice(), Stage::Update, "updated square-root covariance S")?;
 
         // Diagnostics: S_innovation = S_zz·S_zzᵀ on the used rows.
         lower_gram(self.s_zz.as_slice(), m, mv, self.s_innovation.as_mut_slice(), m);
@@ -344,9 +342,17 @@ impl<M: Model> SquareRootCubature<M> {
             m,
             self.e.as_slice(),
         );
+        self.commit_factor(lanes);
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
-        std::mem::swap(&mut self.s, &mut self.s_next);
         Ok(())
+    }
+
+    /// Makes the new factor (by rows, in `s_t_next`) the filter's `S`.
+    #[inline(always)]
+    fn commit_factor<L: Lanes>(&mut self, lanes: L) {
+        let n = self.core.n();
+        std::mem::swap(&mut self.s_t, &mut self.s_t_next);
+        lanes.transpose(self.s_t.as_slice(), n, n, n, self.s.as_mut_slice(), n);
     }
 }
 

@@ -40,6 +40,9 @@ pub(crate) trait Lanes: Copy {
     /// any length of `out`: a linear combination of columns of a column-major
     /// matrix (leading dimension `ld`), kept in registers across the terms.
     fn combine(self, out: &mut [f64], c: &[f64], columns: &[f64], ld: usize);
+    /// `dst = srcᵀ`, for `src` of `rows × cols` (column-major, leading
+    /// dimension `lds`) and `dst` of `cols × rows` (leading dimension `ldd`).
+    fn transpose(self, src: &[f64], lds: usize, rows: usize, cols: usize, dst: &mut [f64], ldd: usize);
 }
 
 /// The lanes' sum in a fixed (pairwise) order.
@@ -55,6 +58,17 @@ fn check_columns(terms: usize, len: usize, columns: &[f64], ld: usize) {
         terms == 0 || columns.len() >= (terms - 1) * ld + len,
         "combine: {terms} columns of {len} with leading dimension {ld} need more than {} values",
         columns.len()
+    );
+}
+
+/// The slices a transpose reaches must hold the matrices.
+#[inline(always)]
+fn check_transpose(src: &[f64], lds: usize, rows: usize, cols: usize, dst: &[f64], ldd: usize) {
+    assert!(
+        rows == 0 || cols == 0 || (rows <= lds && cols <= ldd && src.len() >= (cols - 1) * lds + rows && dst.len() >= (rows - 1) * ldd + cols),
+        "transpose: {rows} × {cols} does not fit {} values (ld {lds}) into {} (ld {ldd})",
+        src.len(),
+        dst.len()
     );
 }
 
@@ -121,6 +135,16 @@ impl Lanes for Portable {
             }
         }
     }
+
+    #[inline(always)]
+    fn transpose(self, src: &[f64], lds: usize, rows: usize, cols: usize, dst: &mut [f64], ldd: usize) {
+        check_transpose(src, lds, rows, cols, dst, ldd);
+        for j in 0..cols {
+            for (i, &v) in src[j * lds..j * lds + rows].iter().enumerate() {
+                dst[i * ldd + j] = v;
+            }
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -168,10 +192,10 @@ mod avx2 {
     use std::arch::x86_64::{
         __m256d, _mm256_add_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,
         _mm256_hadd_pd, _mm256_loadu_pd, _mm256_permute2f128_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-        _mm_add_pd, _mm_cvtsd_f64, _mm_unpackhi_pd,
+        _mm256_unpackhi_pd, _mm256_unpacklo_pd, _mm_add_pd, _mm_cvtsd_f64, _mm_unpackhi_pd,
     };
 
-    use super::{check_columns, Chunk, Lanes, COLUMN_BLOCK, LANES};
+    use super::{check_columns, check_transpose, Chunk, Lanes, COLUMN_BLOCK, LANES};
 
     /// Proof that the CPU has AVX2 and FMA: only [`Avx2::detect`] makes one.
     #[derive(Debug, Clone, Copy)]
@@ -220,6 +244,12 @@ mod avx2 {
         fn combine(self, out: &mut [f64], c: &[f64], columns: &[f64], ld: usize) {
             // SAFETY: as above.
             unsafe { combine(out, c, columns, ld) }
+        }
+
+        #[inline(always)]
+        fn transpose(self, src: &[f64], lds: usize, rows: usize, cols: usize, dst: &mut [f64], ldd: usize) {
+            // SAFETY: as above.
+            unsafe { transpose(src, lds, rows, cols, dst, ldd) }
         }
     }
 
@@ -406,6 +436,43 @@ mod avx2 {
             }
         }
     }
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn transpose(src: &[f64], lds: usize, rows: usize, cols: usize, dst: &mut [f64], ldd: usize) {
+        check_transpose(src, lds, rows, cols, dst, ldd);
+        let (whole_rows, whole_cols) = (rows - rows % 4, cols - cols % 4);
+        let (s, d) = (src.as_ptr(), dst.as_mut_ptr());
+        for j in (0..whole_cols).step_by(4) {
+            for i in (0..whole_rows).step_by(4) {
+                // SAFETY: rows i..i+4 of columns j..j+4 lie inside `src`, and
+                // rows j..j+4 of columns i..i+4 inside `dst` (`check_transpose`).
+                unsafe {
+                    let c0 = _mm256_loadu_pd(s.add(j * lds + i));
+                    let c1 = _mm256_loadu_pd(s.add((j + 1) * lds + i));
+                    let c2 = _mm256_loadu_pd(s.add((j + 2) * lds + i));
+                    let c3 = _mm256_loadu_pd(s.add((j + 3) * lds + i));
+                    // [c0ᵢ, c1ᵢ, c0ᵢ₊₂, c1ᵢ₊₂] and so on: then swap the 128-bit halves.
+                    let (t0, t1) = (_mm256_unpacklo_pd(c0, c1), _mm256_unpackhi_pd(c0, c1));
+                    let (t2, t3) = (_mm256_unpacklo_pd(c2, c3), _mm256_unpackhi_pd(c2, c3));
+                    _mm256_storeu_pd(d.add(i * ldd + j), _mm256_permute2f128_pd(t0, t2, 0x20));
+                    _mm256_storeu_pd(d.add((i + 1) * ldd + j), _mm256_permute2f128_pd(t1, t3, 0x20));
+                    _mm256_storeu_pd(d.add((i + 2) * ldd + j), _mm256_permute2f128_pd(t0, t2, 0x31));
+                    _mm256_storeu_pd(d.add((i + 3) * ldd + j), _mm256_permute2f128_pd(t1, t3, 0x31));
+                }
+            }
+            for i in whole_rows..rows {
+                for jj in j..j + 4 {
+                    dst[i * ldd + jj] = src[jj * lds + i];
+                }
+            }
+        }
+        for j in whole_cols..cols {
+            for (i, &v) in src[j * lds..j * lds + rows].iter().enumerate() {
+                dst[i * ldd + j] = v;
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -458,6 +525,35 @@ mod tests {
             avx2.combine(&mut x1, &c, &columns, ld);
             Portable.combine(&mut x2, &c, &columns, ld);
             assert!(close(&x1, &x2, 100.0), "len {len}");
+        }
+    }
+
+    #[test]
+    fn transposes_are_exact_at_every_shape() {
+        let kernels: Vec<Box<dyn Fn(&[f64], usize, usize, usize, &mut [f64], usize)>> = vec![
+            Box::new(|s, lds, r, c, d, ldd| Portable.transpose(s, lds, r, c, d, ldd)),
+            #[cfg(target_arch = "x86_64")]
+            Box::new(|s, lds, r, c, d, ldd| {
+                if let Some(avx2) = Avx2::detect() {
+                    avx2.transpose(s, lds, r, c, d, ldd)
+                } else {
+                    Portable.transpose(s, lds, r, c, d, ldd)
+                }
+            }),
+        ];
+        for transpose in &kernels {
+            for (rows, cols) in [(0, 3), (1, 1), (3, 5), (4, 4), (7, 9), (24, 24), (9, 8)] {
+                let (lds, ldd) = (rows + 2, cols + 1);
+                let src = data(lds * cols, 3);
+                let mut dst = vec![f64::NAN; ldd * rows.max(1)];
+                transpose(&src, lds, rows, cols, &mut dst, ldd);
+                for i in 0..rows {
+                    for j in 0..cols {
+                        assert_eq!(dst[i * ldd + j], src[j * lds + i], "{rows} × {cols} at ({i}, {j})");
+                    }
+                    assert!(dst[i * ldd + cols].is_nan(), "{rows} × {cols}: wrote past row {i}");
+                }
+            }
         }
     }
 

@@ -68,15 +68,45 @@ impl Tria {
     /// fixing them makes the factor unique, equal to the Cholesky factor of
     /// `A·Aᵀ` when that exists). `Aᵀ` is destroyed.
     pub(crate) fn factor(&mut self, cols: usize, s: &mut [f64], lds: usize) {
+        self.triangularize(cols);
+        self.write_factor(cols, s, lds);
+    }
+
+    /// [`Tria::factor`], with `S` written by rows: `out[i·ldo + k] = S[i, k]`
+    /// (zeros right of the diagonal). Row `i` of `S` is column `i` of `R`,
+    /// which lies in column `i` of `Aᵀ`: a contiguous copy, unlike `S` by columns.
+    pub(crate) fn factor_by_rows(&mut self, cols: usize, out: &mut [f64], ldo: usize) {
+        self.triangularize(cols);
+        let (ld, steps) = (self.ld, self.rows.min(cols));
+        // Never past the column of Aᵀ (fewer rows than columns).
+        let width = cols.min(ld);
+        for i in 0..cols {
+            let row = &mut out[i * ldo..i * ldo + cols];
+            // The whole row, then zeros over what lies right of the diagonal:
+            // equal lengths let the compiler vectorise the copy.
+            for ((o, &r), &sign) in row.iter_mut().zip(&self.at[i * ld..i * ld + width]).zip(&self.w[..width]) {
+                *o = sign * r;
+            }
+            row[(i + 1).min(steps)..].fill(0.0);
+        }
+    }
+
+    /// The Householder QR, then the signs that make the diagonal of `S`
+    /// non-negative (in `w`).
+    fn triangularize(&mut self, cols: usize) {
         assert!(cols <= self.cols, "Tria::factor: {cols} columns for a workspace of {}", self.cols);
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = Avx2::detect() {
             self.householder_avx2(avx2, cols);
-            self.write_factor(cols, s, lds);
-            return;
+        } else {
+            self.householder(Portable, cols);
         }
+        #[cfg(not(target_arch = "x86_64"))]
         self.householder(Portable, cols);
-        self.write_factor(cols, s, lds);
+        let (ld, steps) = (self.ld, self.rows.min(cols));
+        for (k, sign) in self.w[..cols].iter_mut().enumerate() {
+            *sign = if k < steps && self.at[k * ld + k] < 0.0 { -1.0 } else { 1.0 };
+        }
     }
 
     /// The Householder QR compiled with AVX2 and FMA enabled throughout.
@@ -129,39 +159,18 @@ impl Tria {
         }
     }
 
-    /// `S = Rᵀ`, rows of `R` (columns of `S`) flipped to a non-negative
-    /// diagonal; the signs stay in `w` for [`Tria::write_rows`].
-    fn write_factor(&mut self, cols: usize, s: &mut [f64], lds: usize) {
+    /// `S = Rᵀ`, rows of `R` (columns of `S`) flipped by the signs in `w`.
+    fn write_factor(&self, cols: usize, s: &mut [f64], lds: usize) {
         let (ld, steps) = (self.ld, self.rows.min(cols));
-        for (k, sign) in self.w[..cols].iter_mut().enumerate() {
-            *sign = if k < steps && self.at[k * ld + k] < 0.0 { -1.0 } else { 1.0 };
+        for k in 0..cols {
+            s[k * lds..k * lds + cols].fill(0.0);
         }
-        for (k, &sign) in self.w[..cols].iter().enumerate() {
-            let s_col = &mut s[k * lds..k * lds + cols];
-            s_col[..k].fill(0.0);
-            if k >= steps {
-                s_col[k..].fill(0.0);
-                continue;
-            }
-            // Row k of R, from column k on: entry k of each column of Aᵀ.
-            for (sv, &r) in s_col[k..].iter_mut().zip(self.at[k * ld + k..].iter().step_by(ld)) {
-                *sv = sign * r;
-            }
-        }
-    }
-
-    /// After [`Tria::factor`]: the same `S` by rows, `out[i·ldo + k] = S[i, k]`
-    /// (zeros right of the diagonal). Row `i` of `S` is column `i` of `R`,
-    /// which lies in column `i` of `Aᵀ`: a contiguous copy, unlike `S` by columns.
-    pub(crate) fn write_rows(&self, cols: usize, out: &mut [f64], ldo: usize) {
-        let (ld, steps) = (self.ld, self.rows.min(cols));
+        // Column i of Aᵀ holds row i of S (its first min(i + 1, steps) entries).
         for i in 0..cols {
-            let row = &mut out[i * ldo..i * ldo + cols];
             let known = (i + 1).min(steps);
-            for ((o, &r), &sign) in row.iter_mut().zip(&self.at[i * ld..i * ld + known]).zip(&self.w) {
-                *o = sign * r;
+            for (k, (&r, &sign)) in self.at[i * ld..i * ld + known].iter().zip(&self.w).enumerate() {
+                s[k * lds + i] = sign * r;
             }
-            row[known..].fill(0.0);
         }
     }
 }
@@ -339,14 +348,15 @@ mod tests {
 
     #[test]
     fn rows_are_the_rows_of_the_factor() {
-        for &(n, r) in &[(24, 55), (5, 3), (7, 7)] {
+        for &(n, r) in &[(24, 55), (5, 3), (7, 7), (12, 3)] {
             let a = compound(n, r);
             let mut tria = Tria::dense(r, n);
             fill(&mut tria, &a.transpose());
             let mut s = DMatrix::from_element(n, n, f64::NAN);
             tria.factor(n, s.as_mut_slice(), n);
             let mut rows = DMatrix::from_element(n + 2, n, f64::NAN);
-            tria.write_rows(n, rows.as_mut_slice(), n + 2);
+            fill(&mut tria, &a.transpose());
+            tria.factor_by_rows(n, rows.as_mut_slice(), n + 2);
             assert_eq!(rows.rows(0, n), s.transpose(), "n={n} r={r}");
             assert!(rows.rows(n, 2).iter().all(|v| v.is_nan()), "n={n} r={r}: wrote outside the rows");
         }
