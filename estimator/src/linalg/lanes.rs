@@ -65,7 +65,12 @@ fn check_columns(terms: usize, len: usize, columns: &[f64], ld: usize) {
 #[inline(always)]
 fn check_transpose(src: &[f64], lds: usize, rows: usize, cols: usize, dst: &[f64], ldd: usize) {
     assert!(
-        rows == 0 || cols == 0 || (rows <= lds && cols <= ldd && src.len() >= (cols - 1) * lds + rows && dst.len() >= (rows - 1) * ldd + cols),
+        rows == 0
+            || cols == 0
+            || (rows <= lds
+                && cols <= ldd
+                && src.len() >= (cols - 1) * lds + rows
+                && dst.len() >= (rows - 1) * ldd + cols),
         "transpose: {rows} × {cols} does not fit {} values (ld {lds}) into {} (ld {ldd})",
         src.len(),
         dst.len()
