@@ -533,32 +533,27 @@ mod tests {
         }
     }
 
+    fn check_transposes<L: Lanes>(lanes: L) {
+        for (rows, cols) in [(0, 3), (1, 1), (3, 5), (4, 4), (7, 9), (24, 24), (9, 8)] {
+            let (lds, ldd) = (rows + 2, cols + 1);
+            let src = data(lds * cols, 3);
+            let mut dst = vec![f64::NAN; ldd * rows.max(1)];
+            lanes.transpose(&src, lds, rows, cols, &mut dst, ldd);
+            for i in 0..rows {
+                for j in 0..cols {
+                    assert_eq!(dst[i * ldd + j], src[j * lds + i], "{rows} × {cols} at ({i}, {j})");
+                }
+                assert!(dst[i * ldd + cols].is_nan(), "{rows} × {cols}: wrote past row {i}");
+            }
+        }
+    }
+
     #[test]
     fn transposes_are_exact_at_every_shape() {
-        let kernels: Vec<Box<dyn Fn(&[f64], usize, usize, usize, &mut [f64], usize)>> = vec![
-            Box::new(|s, lds, r, c, d, ldd| Portable.transpose(s, lds, r, c, d, ldd)),
-            #[cfg(target_arch = "x86_64")]
-            Box::new(|s, lds, r, c, d, ldd| {
-                if let Some(avx2) = Avx2::detect() {
-                    avx2.transpose(s, lds, r, c, d, ldd)
-                } else {
-                    Portable.transpose(s, lds, r, c, d, ldd)
-                }
-            }),
-        ];
-        for transpose in &kernels {
-            for (rows, cols) in [(0, 3), (1, 1), (3, 5), (4, 4), (7, 9), (24, 24), (9, 8)] {
-                let (lds, ldd) = (rows + 2, cols + 1);
-                let src = data(lds * cols, 3);
-                let mut dst = vec![f64::NAN; ldd * rows.max(1)];
-                transpose(&src, lds, rows, cols, &mut dst, ldd);
-                for i in 0..rows {
-                    for j in 0..cols {
-                        assert_eq!(dst[i * ldd + j], src[j * lds + i], "{rows} × {cols} at ({i}, {j})");
-                    }
-                    assert!(dst[i * ldd + cols].is_nan(), "{rows} × {cols}: wrote past row {i}");
-                }
-            }
+        check_transposes(Portable);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            check_transposes(avx2);
         }
     }
 
