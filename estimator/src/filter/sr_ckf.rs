@@ -186,7 +186,7 @@ impl<M: Model> SquareRootCubature<M> {
         // [S_Q, Y*]): S_Q's row r (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
         let w = 0.5 / n as f64;
         let scale = w.sqrt();
-        let sq = self.core.noise.q_sqrt().as_slice();
+        let sq_t = self.core.noise.q_sqrt_transposed().as_slice();
         for (r, x_r) in self.core.x_next.as_mut_slice().iter_mut().enumerate() {
             let col = self.predict_compound.column_mut(r);
             let (head, points) = col.split_at_mut(n);
@@ -195,9 +195,7 @@ impl<M: Model> SquareRootCubature<M> {
             for c in points {
                 *c = (*c - *x_r) * scale;
             }
-            for (k, c) in head[..=r].iter_mut().enumerate() {
-                *c = sq[k * n + r];
-            }
+            head[..=r].copy_from_slice(&sq_t[r * n..=r * n + r]);
         }
         self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
         ensure_finite(self.s_t_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
@@ -250,13 +248,11 @@ impl<M: Model> SquareRootCubature<M> {
         let (d_t, sigma_t) = (self.d_t.as_slice(), self.sigma_t.as_slice());
 
         // M = Tria([Σ̃, S_R,used]), then S_zz = Tria([D̃, M]): S_zz·S_zzᵀ = D̃·D̃ᵀ + Σ̃·Σ̃ᵀ + R = P_zz.
-        let s_r = self.core.noise.r_sqrt();
+        let s_r_t = self.core.noise.r_sqrt_transposed().as_slice();
         for (a, &row) in rows.iter().enumerate() {
             let col = self.m_compound.column_mut(a);
             col[..n].copy_from_slice(&sigma_t[a * n..(a + 1) * n]);
-            for (k, v) in col[n..].iter_mut().enumerate() {
-                *v = s_r[(row, k)];
-            }
+            col[n..].copy_from_slice(&s_r_t[row * m..(row + 1) * m]);
         }
         self.m_compound.factor(mv, self.m_root.as_mut_slice(), m);
         let m_root = self.m_root.as_slice();
