@@ -54,7 +54,8 @@ pub struct SquareRootCubature<M> {
     s_t_next: DMatrix<f64>,
     /// One component of every cubature point, padding included (see `spread`).
     point_row: Vec<f64>,
-    /// Coefficients of the linear combinations in the update (`max(n, m)`).
+    /// Coefficients of the linear combinations in the update: one per used
+    /// measurement row (`m`), in the gain's solves and the compound.
     coefficients: Vec<f64>,
     /// The `2n` cubature points.
     xs: PointBlocks,
@@ -103,7 +104,7 @@ impl<M: Model> SquareRootCubature<M> {
             s_t: DMatrix::zeros(n, n),
             s_t_next: DMatrix::zeros(n, n),
             point_row: vec![0.0; PointBlocks::new(0, 2 * n).padded_count()],
-            coefficients: vec![0.0; n.max(m)],
+            coefficients: vec![0.0; m],
             xs: PointBlocks::new(n, 2 * n),
             ys: PointBlocks::new(n, 2 * n),
             predict_compound: Tria::upper_on_top(3 * n, n),
