@@ -19,9 +19,8 @@ pub struct Noise {
     r: DMatrix<f64>,
     q_sqrt: DMatrix<f64>,
     r_sqrt: DMatrix<f64>,
-    /// `S_Qᵀ` and `S_Rᵀ`: their columns are the rows of the roots, which the
-    /// SRCKF copies into its compounds every step.
-    q_sqrt_t: DMatrix<f64>,
+    /// `S_Rᵀ`: its columns are the rows of `S_R`, which the SRCKF copies into
+    /// its compounds every step, one per used measurement row.
     r_sqrt_t: DMatrix<f64>,
 }
 
@@ -31,8 +30,8 @@ impl Noise {
     pub fn new(q: DMatrix<f64>, r: DMatrix<f64>) -> Result<Self, FilterError> {
         let q_sqrt = lower_square_root("process noise Q", &q)?;
         let r_sqrt = lower_square_root("measurement noise R", &r)?;
-        let (q_sqrt_t, r_sqrt_t) = (q_sqrt.transpose(), r_sqrt.transpose());
-        Ok(Self { q, r, q_sqrt, r_sqrt, q_sqrt_t, r_sqrt_t })
+        let r_sqrt_t = r_sqrt.transpose();
+        Ok(Self { q, r, q_sqrt, r_sqrt, r_sqrt_t })
     }
 
     /// Diagonal `Q` and `R` from their diagonals (variances).
@@ -62,11 +61,6 @@ impl Noise {
     /// The lower-triangular square root `S_R` with `S_R·S_Rᵀ = R`.
     pub fn r_sqrt(&self) -> &DMatrix<f64> {
         &self.r_sqrt
-    }
-
-    /// `S_Qᵀ`: column `i` is row `i` of `S_Q`.
-    pub(crate) fn q_sqrt_transposed(&self) -> &DMatrix<f64> {
-        &self.q_sqrt_t
     }
 
     /// `S_Rᵀ`: column `i` is row `i` of `S_R`.

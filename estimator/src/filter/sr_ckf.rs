@@ -48,14 +48,14 @@ pub struct SquareRootCubature<M> {
     core: Core<M>,
     /// `S`, lower triangular with a non-negative diagonal.
     s: DMatrix<f64>,
-    /// `Sᵀ`: column `i` is row `i` of `S`, which the points and the update
-    /// compound take whole. `Tria` writes it directly; `S` is its transpose.
+    /// `Sᵀ`: column `i` is row `i` of `S`, which the points take whole.
+    /// `Tria` writes it directly; `S` is its transpose.
     s_t: DMatrix<f64>,
     s_t_next: DMatrix<f64>,
     /// One component of every cubature point, padding included (see `spread`).
     point_row: Vec<f64>,
-    /// Coefficients of the linear combinations in the update: one per used
-    /// measurement row (`m`), in the gain's solves and the compound.
+    /// Coefficients of the linear combinations in the gain's triangular
+    /// solves: one per used measurement row (`m`).
     coefficients: Vec<f64>,
     /// The `2n` cubature points.
     xs: PointBlocks,
@@ -88,6 +88,8 @@ pub struct SquareRootCubature<M> {
     gain: DMatrix<f64>,
     /// `W·M` (`n × m`, first `mv` columns used).
     w_m: DMatrix<f64>,
+    /// `−Wᵀ` (`m × n`, first `mv` rows used): column q is row q of −W.
+    w_t: DMatrix<f64>,
     nu: DVector<f64>,
     e: DVector<f64>,
     s_innovation: DMatrix<f64>,
@@ -121,6 +123,7 @@ impl<M: Model> SquareRootCubature<M> {
             s_zz: DMatrix::zeros(m, m),
             gain: DMatrix::zeros(n, m),
             w_m: DMatrix::zeros(n, m),
+            w_t: DMatrix::zeros(m, n),
             nu: DVector::zeros(m),
             e: DVector::zeros(m),
             s_innovation: DMatrix::zeros(m, m),
@@ -187,17 +190,17 @@ impl<M: Model> SquareRootCubature<M> {
         // [S_Q, Y*]): S_Q's row r (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
         let w = 0.5 / n as f64;
         let scale = w.sqrt();
-        let sq_t = self.core.noise.q_sqrt_transposed().as_slice();
         for (r, x_r) in self.core.x_next.as_mut_slice().iter_mut().enumerate() {
-            let col = self.predict_compound.column_mut(r);
-            let (head, points) = col.split_at_mut(n);
+            let points = &mut self.predict_compound.column_mut(r)[n..];
             self.ys.copy_component(r, points);
             *x_r = w * sum(points);
             for c in points {
                 *c = (*c - *x_r) * scale;
             }
-            head[..=r].copy_from_slice(&sq_t[r * n..=r * n + r]);
         }
+        // The top block is S_Qᵀ: one transpose rather than a copy per row.
+        let (top, ld) = self.predict_compound.rows_mut(0);
+        lanes.transpose(self.core.noise.q_sqrt().as_slice(), n, n, n, top, ld);
         self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
         ensure_finite(self.s_t_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
         self.commit_factor(lanes);
@@ -309,20 +312,24 @@ impl<M: Model> SquareRootCubature<M> {
         // each pair of columns (j, n + j) rotated by 45°, which leaves A·Aᵀ
         // unchanged: the differences give S − W·D̃, the sums −W·Σ̃, and
         // [−W·Σ̃, W·S_R] has the same Gram matrix as W·M. 2n + m columns become n + m.
-        // Column q of the transposed compound is row q of both blocks: row q
-        // of S (column q of Sᵀ) less the combination of D̃'s rows with row q of W.
-        let s_t = self.s_t.as_slice();
-        for q in 0..n {
-            let (top, bottom) = self.update_compound.column_mut(q).split_at_mut(n);
-            top.copy_from_slice(&s_t[q * n..(q + 1) * n]);
-            let c = &mut scratch[..mv];
-            for (a, c) in c.iter_mut().enumerate() {
-                *c = -gain[a * n + q];
+        // Column q of the transposed compound is row q of both blocks. Both
+        // go in by transposes (Sᵀ on top, (W·M)ᵀ below); then row q of −W
+        // (column q of −Wᵀ) combines D̃'s rows into the top of column q.
+        let (compound, ld) = self.update_compound.rows_mut(0);
+        lanes.transpose(self.s.as_slice(), n, n, n, compound, ld);
+        lanes.transpose(w_m, n, n, mv, &mut compound[n..], ld);
+        if mv < m {
+            for col in compound.chunks_mut(ld).take(n) {
+                col[n + mv..n + m].fill(0.0);
             }
-            lanes.combine(top, c, d_t, n);
-            for (k, v) in bottom.iter_mut().enumerate() {
-                *v = if k < mv { w_m[k * n + q] } else { 0.0 };
-            }
+        }
+        let w_t = self.w_t.as_mut_slice();
+        lanes.transpose(gain, n, n, mv, w_t, m);
+        for c in w_t.iter_mut() {
+            *c = -*c;
+        }
+        for (q, c) in w_t.chunks_exact(m).enumerate() {
+            lanes.combine(&mut self.update_compound.column_mut(q)[..n], &c[..mv], d_t, n);
         }
         self.update_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
         ensure_finite(self.core.x_next.as_slice(), Stage::Update, "updated state")?;

@@ -11,7 +11,8 @@
 //! * [`Tria::upper_on_top`]: the first `cols` rows of `Aᵀ` are upper triangular,
 //!   as `S_Qᵀ` is in the predict compound `[S_Q, Y*]ᵀ` once `S_Q` is lower
 //!   triangular. Reflection `k` then touches only row `k` of that block and the
-//!   dense rows below it, which saves a quarter of the work for `3n × n`.
+//!   dense rows below it, which saves a quarter of the work for `3n × n`; the
+//!   dense part of each reflector is its column as it stands, used in place.
 //!
 //! The rows of each column are padded with zeros to a multiple of [`LANES`], so
 //! the inner loops run over whole chunks (see `lanes.rs`: portable, or AVX2
@@ -31,7 +32,9 @@ pub(crate) struct Tria {
     /// Leading dimension: `top` plus the dense rows rounded up to [`LANES`].
     ld: usize,
     at: Vec<f64>,
-    /// The dense parts of a pair of reflectors, zero outside the rows they act on.
+    /// The dense parts of a pair of reflectors, zero outside the rows they
+    /// act on (without structure; with an upper-triangular top they are the
+    /// columns themselves, and these stay empty).
     v: Vec<f64>,
     v2: Vec<f64>,
     /// `vᵀ·aⱼ` for the trailing columns.
@@ -53,12 +56,29 @@ impl Tria {
 
     fn with_top(top: usize, rows: usize, cols: usize) -> Self {
         let ld = top + (rows - top).div_ceil(LANES) * LANES;
-        Self { rows, cols, top, ld, at: vec![0.0; ld * cols], v: vec![0.0; ld], v2: vec![0.0; ld], w: vec![0.0; cols] }
+        let v_len = if top == 0 { ld } else { 0 };
+        Self {
+            rows,
+            cols,
+            top,
+            ld,
+            at: vec![0.0; ld * cols],
+            v: vec![0.0; v_len],
+            v2: vec![0.0; v_len],
+            w: vec![0.0; cols],
+        }
     }
 
     /// Column `j` of `Aᵀ` (row `j` of `A`), `rows` entries, to be filled.
     pub(crate) fn column_mut(&mut self, j: usize) -> &mut [f64] {
         &mut self.at[j * self.ld..j * self.ld + self.rows]
+    }
+
+    /// Rows `first..` of every column of `Aᵀ` and its leading dimension, to
+    /// fill a block of rows of all the columns at once (with `Lanes::transpose`).
+    /// The rows past `rows` in each column are padding: what is written there is cleared.
+    pub(crate) fn rows_mut(&mut self, first: usize) -> (&mut [f64], usize) {
+        (&mut self.at[first..], self.ld)
     }
 
     /// Triangularises the first `cols` columns of `Aᵀ` (at most the `cols` it
@@ -131,6 +151,17 @@ impl Tria {
     /// is read and written once per pair instead of once per reflector.
     #[inline(always)]
     fn householder<L: Lanes>(&mut self, lanes: L, cols: usize) {
+        if self.top > 0 {
+            self.householder_with::<L, true>(lanes, cols)
+        } else {
+            self.householder_with::<L, false>(lanes, cols)
+        }
+    }
+
+    /// [`Tria::householder`], compiled apart for the two layouts (a run-time
+    /// flag in the loop cost more than the copies it saves).
+    #[inline(always)]
+    fn householder_with<L: Lanes, const IN_PLACE: bool>(&mut self, lanes: L, cols: usize) {
         let (rows, top, ld) = (self.rows, self.top, self.ld);
         // The padding rows stay zero through every reflection, unless an earlier
         // call met a non-finite input: clear them so one bad step cannot poison the next.
@@ -138,22 +169,34 @@ impl Tria {
             col[rows..].fill(0.0);
         }
         let steps = rows.min(cols);
+        // With an upper-triangular top (`IN_PLACE`), every reflector acts on
+        // its head row and on all the dense rows, which lie below the head
+        // rows from `top` on: its dense part is the column itself, used in place.
         let mut k = 0;
         while k < steps {
             // The reflectors act on their head row and on the dense rows
             // below it, run over from the chunk boundary `start`.
-            let start = if top > 0 { top } else { k - k % LANES };
+            let start = if IN_PLACE { top } else { k - k % LANES };
             let (head, tail) = self.at.split_at_mut((k + 1) * ld);
-            let v1 = &mut self.v[start..];
-            let first = reflector(lanes, &mut head[k * ld..], v1, k, top.max(k + 1), start, rows);
+            let col = &mut head[k * ld..];
+            let first = if IN_PLACE {
+                reflector_in_place(lanes, col, k, start)
+            } else {
+                reflector(lanes, col, &mut self.v[start..], k, k + 1, start, rows)
+            };
+            let v1: &[f64] = if IN_PLACE { &col[start..] } else { &self.v[start..] };
             if k + 1 == steps {
                 apply(lanes, &first, v1, start, ld, &mut tail[..(cols - k - 1) * ld], &mut self.w);
                 break;
             }
             let (next, rest) = tail.split_at_mut(ld);
             apply(lanes, &first, v1, start, ld, next, &mut self.w);
-            let v2 = &mut self.v2[start..];
-            let second = reflector(lanes, next, v2, k + 1, top.max(k + 2), start, rows);
+            let second = if IN_PLACE {
+                reflector_in_place(lanes, next, k + 1, start)
+            } else {
+                reflector(lanes, next, &mut self.v2[start..], k + 1, k + 2, start, rows)
+            };
+            let v2: &[f64] = if IN_PLACE { &next[start..] } else { &self.v2[start..] };
             apply_pair(lanes, [&first, &second], [v1, v2], start, ld, &mut rest[..(cols - k - 2) * ld]);
             k += 2;
         }
@@ -201,8 +244,22 @@ fn reflector<L: Lanes>(
     zeros.fill(0.0);
     part.copy_from_slice(&col[first..rows]);
     padding.fill(0.0);
+    let norm2 = col[k] * col[k] + lanes.dot(v, v);
+    head_of(col, k, norm2)
+}
+
+/// [`reflector`] for a column whose rows from `first` on (whole chunks, the
+/// padding zero) are the dense part as they stand: they are left in place.
+#[inline(always)]
+fn reflector_in_place<L: Lanes>(lanes: L, col: &mut [f64], k: usize, first: usize) -> Reflector {
+    let norm2 = col[k] * col[k] + lanes.dot(&col[first..], &col[first..]);
+    head_of(col, k, norm2)
+}
+
+/// The reflector with head row `k` of `col`, given `‖x‖²`; writes `α` to row `k`.
+#[inline(always)]
+fn head_of(col: &mut [f64], k: usize, norm2: f64) -> Reflector {
     let x0 = col[k];
-    let norm2 = x0 * x0 + lanes.dot(v, v);
     if norm2 == 0.0 {
         return Reflector { k, v0: 0.0, tau: 0.0 };
     }
