@@ -37,8 +37,13 @@ pub(crate) struct Tria {
     /// columns themselves, and these stay empty).
     v: Vec<f64>,
     v2: Vec<f64>,
-    /// `vᵀ·aⱼ` for the trailing columns.
+    /// `vᵀ·aⱼ` for the trailing columns; after the QR, the signs that make
+    /// the diagonal of `S` non-negative.
     w: Vec<f64>,
+    /// The signs as a sign bit, and the mask of the columns a row of `S`
+    /// keeps (`factor_by_rows`).
+    flip: Vec<u64>,
+    keep: Vec<u64>,
 }
 
 impl Tria {
@@ -66,6 +71,8 @@ impl Tria {
             v: vec![0.0; v_len],
             v2: vec![0.0; v_len],
             w: vec![0.0; cols],
+            flip: vec![0; cols],
+            keep: vec![0; cols],
         }
     }
 
@@ -95,19 +102,36 @@ impl Tria {
     /// [`Tria::factor`], with `S` written by rows: `out[i·ldo + k] = S[i, k]`
     /// (zeros right of the diagonal). Row `i` of `S` is column `i` of `R`,
     /// which lies in column `i` of `Aᵀ`: a contiguous copy, unlike `S` by columns.
+    #[inline(always)]
     pub(crate) fn factor_by_rows(&mut self, cols: usize, out: &mut [f64], ldo: usize) {
         self.triangularize(cols);
         let (ld, steps) = (self.ld, self.rows.min(cols));
         // Never past the column of Aᵀ (fewer rows than columns).
         let width = cols.min(ld);
-        for i in 0..cols {
+        // Each entry of the row as bits: its sign flipped by the column's sign
+        // (`flip`), then kept or cleared to +0 (`keep`). Going from the last
+        // row up, `keep` loses one column per row, so every row is one pass of
+        // equal lengths with no branch, which the caller's vector code takes whole.
+        const SIGN: u64 = 1 << 63;
+        for (k, (flip, keep)) in self.flip[..width].iter_mut().zip(&mut self.keep[..width]).enumerate() {
+            *flip = self.w[k].to_bits() & SIGN;
+            *keep = if k < steps { u64::MAX } else { 0 };
+        }
+        for i in (0..cols).rev() {
             let row = &mut out[i * ldo..i * ldo + cols];
-            // The whole row, then zeros over what lies right of the diagonal:
-            // equal lengths let the compiler vectorise the copy.
-            for ((o, &r), &sign) in row.iter_mut().zip(&self.at[i * ld..i * ld + width]).zip(&self.w[..width]) {
-                *o = sign * r;
+            let (head, rest) = row.split_at_mut(width);
+            let column = &self.at[i * ld..i * ld + width];
+            for (o, ((&r, &flip), &keep)) in
+                head.iter_mut().zip(column.iter().zip(&self.flip[..width]).zip(&self.keep[..width]))
+            {
+                *o = f64::from_bits((r.to_bits() ^ flip) & keep);
             }
-            row[(i + 1).min(steps)..].fill(0.0);
+            if !rest.is_empty() {
+                rest.fill(0.0);
+            }
+            if i < width {
+                self.keep[i] = 0;
+            }
         }
     }
 
