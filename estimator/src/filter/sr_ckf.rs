@@ -186,8 +186,8 @@ impl<M: Model> SquareRootCubature<M> {
         }
         // The padding holds φ(x̂), a value the model gives: checked with the rest.
         ensure_finite(self.ys.values(), Stage::Predict, "propagated cubature points")?;
-        // Row r of x̂⁻, and column r of the transposed compound (row r of
-        // [S_Q, Y*]): S_Q's row r (zero beyond r), then (Yᵢ − x̂⁻)ᵣ/√(2n).
+        // Row r of x̂⁻, and the dense rows of column r of the transposed
+        // compound (row r of [S_Q, Y*]): (Yᵢ − x̂⁻)ᵣ/√(2n).
         let w = 0.5 / n as f64;
         let scale = w.sqrt();
         for (r, x_r) in self.core.x_next.as_mut_slice().iter_mut().enumerate() {
@@ -198,7 +198,8 @@ impl<M: Model> SquareRootCubature<M> {
                 *c = (*c - *x_r) * scale;
             }
         }
-        // The top block is S_Qᵀ: one transpose rather than a copy per row.
+        // Its top block is S_Qᵀ (S_Q's row r, zero beyond r, in column r):
+        // one transpose rather than a copy per row.
         let (top, ld) = self.predict_compound.rows_mut(0);
         lanes.transpose(self.core.noise.q_sqrt().as_slice(), n, n, n, top, ld);
         self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
