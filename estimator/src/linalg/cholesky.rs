@@ -87,10 +87,7 @@ pub(crate) fn solve_right_lower_transposed<L: Lanes>(
         for (k, c) in c.iter_mut().enumerate() {
             *c = -l[k * ldl + a];
         }
-        lanes.combine(x_a, c, done, ldb);
-        for v in x_a.iter_mut() {
-            *v /= d;
-        }
+        substitute(lanes, x_a, c, done, ldb, d);
     }
     true
 }
@@ -120,12 +117,19 @@ pub(crate) fn solve_right_lower<L: Lanes>(
         for (c, &l_ca) in c.iter_mut().zip(&l[a * ldl + a + 1..a * ldl + n]) {
             *c = -l_ca;
         }
-        lanes.combine(x_a, c, later, ldb);
-        for v in x_a.iter_mut() {
-            *v /= d;
-        }
+        substitute(lanes, x_a, c, later, ldb, d);
     }
     true
+}
+
+/// One column of a right triangular solve: `x = (x + Σₜ c[t]·column t)/d`,
+/// with `c` the negated entries of `L` that couple `x` to the solved columns.
+#[inline(always)]
+fn substitute<L: Lanes>(lanes: L, x: &mut [f64], c: &[f64], columns: &[f64], ld: usize, d: f64) {
+    lanes.combine(x, c, columns, ld);
+    for v in x.iter_mut() {
+        *v /= d;
+    }
 }
 
 #[cfg(test)]
