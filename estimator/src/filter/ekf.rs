@@ -20,8 +20,7 @@ use crate::filter::correction::Correction;
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::Lanes;
-use crate::linalg::{mul_to, symmetrize, tr_mul_add};
+use crate::linalg::{mul_to, symmetrize, tr_mul_add, Lanes};
 use crate::model::{Model, BLOCK_POINTS};
 use crate::noise::Noise;
 

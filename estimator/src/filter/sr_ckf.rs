@@ -101,13 +101,14 @@ impl<M: Model> SquareRootCubature<M> {
     pub fn new(model: M, noise: Noise, prior: &Gaussian) -> Result<Self, FilterError> {
         let core = Core::new(model, noise, 0.0, prior)?;
         let (n, m) = (core.n(), core.m());
+        let xs = PointBlocks::new(n, 2 * n);
         let mut filter = Self {
             s: DMatrix::zeros(n, n),
             s_t: DMatrix::zeros(n, n),
             s_t_next: DMatrix::zeros(n, n),
-            point_row: vec![0.0; PointBlocks::new(0, 2 * n).padded_count()],
+            point_row: vec![0.0; xs.padded_count()],
             coefficients: vec![0.0; m],
-            xs: PointBlocks::new(n, 2 * n),
+            xs,
             ys: PointBlocks::new(n, 2 * n),
             predict_compound: Tria::upper_on_top(3 * n, n),
             update_compound: Tria::dense(n + m, n),
@@ -316,6 +317,8 @@ impl<M: Model> SquareRootCubature<M> {
         // Column q of the transposed compound is row q of both blocks. Both
         // go in by transposes (Sᵀ on top, (W·M)ᵀ below); then row q of −W
         // (column q of −Wᵀ) combines D̃'s rows into the top of column q.
+        // Sᵀ's columns are at hand in `s_t`, but a copy per column (a `memcpy`
+        // call each) took more instructions than one transpose of S.
         let (compound, ld) = self.update_compound.rows_mut(0);
         lanes.transpose(self.s.as_slice(), n, n, n, compound, ld);
         lanes.transpose(w_m, n, n, mv, &mut compound[n..], ld);

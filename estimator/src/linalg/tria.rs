@@ -206,7 +206,7 @@ impl Tria {
             let first = if IN_PLACE {
                 reflector_in_place(lanes, col, k, start)
             } else {
-                reflector(lanes, col, &mut self.v[start..], k, k + 1, start, rows)
+                reflector(lanes, col, &mut self.v[start..], k, start, rows)
             };
             let v1: &[f64] = if IN_PLACE { &col[start..] } else { &self.v[start..] };
             if k + 1 == steps {
@@ -218,7 +218,7 @@ impl Tria {
             let second = if IN_PLACE {
                 reflector_in_place(lanes, next, k + 1, start)
             } else {
-                reflector(lanes, next, &mut self.v2[start..], k + 1, k + 2, start, rows)
+                reflector(lanes, next, &mut self.v2[start..], k + 1, start, rows)
             };
             let v2: &[f64] = if IN_PLACE { &next[start..] } else { &self.v2[start..] };
             apply_pair(lanes, [&first, &second], [v1, v2], start, ld, &mut rest[..(cols - k - 2) * ld]);
@@ -251,18 +251,11 @@ struct Reflector {
     tau: f64,
 }
 
-/// Forms the reflector that zeroes `col` (a column of `Aᵀ`) in rows `first..rows`
+/// Forms the reflector that zeroes `col` (a column of `Aᵀ`) in rows `k + 1..rows`
 /// and writes `α = ∓‖x‖` to its row `k`; `v` (from row `start`) receives the dense part.
 #[inline(always)]
-fn reflector<L: Lanes>(
-    lanes: L,
-    col: &mut [f64],
-    v: &mut [f64],
-    k: usize,
-    first: usize,
-    start: usize,
-    rows: usize,
-) -> Reflector {
+fn reflector<L: Lanes>(lanes: L, col: &mut [f64], v: &mut [f64], k: usize, start: usize, rows: usize) -> Reflector {
+    let first = k + 1;
     let (zeros, rest) = v.split_at_mut(first - start);
     let (part, padding) = rest.split_at_mut(rows - first);
     zeros.fill(0.0);
