@@ -201,7 +201,7 @@ impl<M: Model> SquareRootCubature<M> {
         }
         // Its top block is S_Qᵀ (S_Q's row r, zero beyond r, in column r):
         // one transpose rather than a copy per row.
-        let (top, ld) = self.predict_compound.rows_mut(0);
+        let (top, ld) = self.predict_compound.columns_mut();
         lanes.transpose(self.core.noise.q_sqrt().as_slice(), n, n, n, top, ld);
         self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
         ensure_finite(self.s_t_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
@@ -319,7 +319,7 @@ impl<M: Model> SquareRootCubature<M> {
         // (column q of −Wᵀ) combines D̃'s rows into the top of column q.
         // Sᵀ's columns are at hand in `s_t`, but a copy per column (a `memcpy`
         // call each) took more instructions than one transpose of S.
-        let (compound, ld) = self.update_compound.rows_mut(0);
+        let (compound, ld) = self.update_compound.columns_mut();
         lanes.transpose(self.s.as_slice(), n, n, n, compound, ld);
         lanes.transpose(w_m, n, n, mv, &mut compound[n..], ld);
         if mv < m {

@@ -81,11 +81,11 @@ impl Tria {
         &mut self.at[j * self.ld..j * self.ld + self.rows]
     }
 
-    /// Rows `first..` of every column of `Aᵀ` and its leading dimension, to
-    /// fill a block of rows of all the columns at once (with `Lanes::transpose`).
+    /// Every column of `Aᵀ`, column-major, and its leading dimension, to fill
+    /// a block of rows of all the columns at once (with `Lanes::transpose`).
     /// The rows past `rows` in each column are padding: what is written there is cleared.
-    pub(crate) fn rows_mut(&mut self, first: usize) -> (&mut [f64], usize) {
-        (&mut self.at[first..], self.ld)
+    pub(crate) fn columns_mut(&mut self) -> (&mut [f64], usize) {
+        (&mut self.at, self.ld)
     }
 
     /// Triangularises the first `cols` columns of `Aᵀ` (at most the `cols` it
