@@ -126,9 +126,7 @@ impl Tria {
             {
                 *o = f64::from_bits((r.to_bits() ^ flip) & keep);
             }
-            if !rest.is_empty() {
-                rest.fill(0.0);
-            }
+            rest.fill(0.0);
             if i < width {
                 self.keep[i] = 0;
             }
