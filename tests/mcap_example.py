@@ -118,8 +118,8 @@ class KalfmuLog:
 
 @dataclass(frozen=True)
 class S1Run:
-    """What was logged: the table's rows (time k·dt, k = 1…n) and the FMU's
-    outputs (time 0 = the prior, then one row per sample)."""
+    """What was logged: the table's rows (time k·dt, k = 0…n) and the FMU's
+    outputs as fmpy records them, one row per row of the table."""
 
     time: np.ndarray
     z: np.ndarray  # (n, 2) z1_ddot, z2_ddot, as fed to the FMU
@@ -143,16 +143,16 @@ def run_s1(fmu: Path, table: Path) -> S1Run:
     """Runs the FMU over the table with fmpy.simulate_fmu, one communication
     step per sample, with the sensor noise of the table as R.
 
-    Alignment: the FMU's step from t to t + dt updates with the inputs set
-    before it, and fmpy sets them from the input table at t; so the row of
-    time t_k = k·dt is given to fmpy at t_k - dt. The outputs fmpy records at
-    t_k are then the estimates after the update with row k."""
+    Time: the table holds the plant's outputs of t_k = k·dt and fmpy sets row
+    k at communication point t_k, which the FMU takes as the measurement at
+    t_k. fmpy reads the outputs at t_0 after the inputs (the estimate given
+    row 0) and after each step to t_k (the estimate at t_k predicted from the
+    rows before): each is the estimate at the time stamp it is recorded with."""
     meta, rows = read_table(table)
     time, z, load = rows[:, 0], rows[:, 1:3], rows[:, 3]
     dt = float(meta["sample_time"])
-    n = len(time)
-    inputs = np.zeros(n, dtype=[("time", float), ("z1_ddot", float), ("z2_ddot", float)])
-    inputs["time"] = np.arange(n) * dt  # = t_k - dt, on fmpy's own time grid (exact weights)
+    inputs = np.zeros(len(time), dtype=[("time", float), ("z1_ddot", float), ("z2_ddot", float)])
+    inputs["time"] = time
     inputs["z1_ddot"], inputs["z2_ddot"] = z[:, 0], z[:, 1]
     md = read_model_description(str(fmu))
     estimates = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
@@ -163,7 +163,7 @@ def run_s1(fmu: Path, table: Path) -> S1Run:
     }
     result = simulate_fmu(
         str(fmu),
-        stop_time=n * dt,
+        stop_time=time[-1],
         output_interval=dt,
         input=inputs,
         output=estimates,
@@ -180,7 +180,7 @@ def run_s1(fmu: Path, table: Path) -> S1Run:
         "parameters": json.dumps(parameters),
         "software": md.generationTool,
         "fmu": md.coSimulation.modelIdentifier,
-        "driver": "fmpy simulate_fmu (tests/mcap_example.py)",
+        "driver": "fmpy simulate_fmu (tests/mcap_example.py): outputs read at t_0 after the inputs, then after each step",
     }
     return S1Run(time, z, load, result, estimates, metadata)
 
@@ -197,14 +197,12 @@ def write_s1_log(path: Path, run: S1Run, fmu: Path) -> None:
         log.add_channel("/measurements", [signal("z1_ddot"), signal("z2_ddot")])
         log.add_channel("/truth", [signal("F", "true load on mass 2")])  # named as the estimate: paired
         log.add_channel("/estimate", [signal(name) for name in run.estimates])
-        rows = iter(zip(run.time, run.z, run.load))
-        for out in run.result:  # time 0 (the prior), then t_1 … t_n
-            t = out["time"]
-            if t > 0:
-                t_k, z, load = next(rows)
-                log.write("/measurements", t_k, z)
-                log.write("/truth", t_k, [load])
-            log.write("/estimate", t, [out[name] for name in run.estimates])
+        assert len(run.result) == len(run.time)
+        for t_k, z, load, out in zip(run.time, run.z, run.load, run.result):
+            assert abs(out["time"] - t_k) < 1e-9, (out["time"], t_k)
+            log.write("/measurements", t_k, z)
+            log.write("/truth", t_k, [load])
+            log.write("/estimate", t_k, [out[name] for name in run.estimates])
 
 
 def main(argv: list[str] | None = None) -> None:

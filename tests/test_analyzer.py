@@ -163,25 +163,24 @@ def s1_log(scenarios_bin, s1_fmu, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def paired(s1_log):
-    """The samples the analyzer compares: truth and estimate at t_1 … t_n
-    (the estimate's prior at t = 0 has no truth)."""
+    """The samples the analyzer compares: truth and estimate at t_0 … t_n."""
     _, run = s1_log
-    out = run.result[1:]
+    out = run.result
     assert np.allclose(out["time"], run.time, rtol=0, atol=1e-12)
     return run.time, run.load, out["F"], out["F_std"]
 
 
 def test_the_python_log_is_valid_mcap_with_the_fmu_units(s1_log, s1_fmu):
     """Read back with the `mcap` reader: three JSON/JSON Schema channels, one
-    message per sample (plus the estimate's prior at t = 0), the units of the
-    modelDescription, the `kalfmu` metadata record."""
+    message per sample t_0 … t_n, the units of the modelDescription, the
+    `kalfmu` metadata record."""
     path, run = s1_log
     units = {v.name: v.unit for v in read_model_description(str(s1_fmu)).modelVariables}
     with open(path, "rb") as f:
         reader = make_reader(f)
         summary = reader.get_summary()
         counts = {summary.channels[c].topic: k for c, k in summary.statistics.channel_message_counts.items()}
-        assert counts == {"/measurements": 1000, "/truth": 1000, "/estimate": 1001}
+        assert counts == {"/measurements": 1001, "/truth": 1001, "/estimate": 1001}
         for channel in summary.channels.values():
             sch = summary.schemas[channel.schema_id]
             assert (channel.message_encoding, sch.encoding) == ("json", "jsonschema")
@@ -200,12 +199,12 @@ def test_the_python_log_is_valid_mcap_with_the_fmu_units(s1_log, s1_fmu):
 
 def test_the_analyzer_reads_the_python_log_and_pairs_f(analyzer_bin, s1_log, tmp_path):
     """`analyzer report LOG --json OUT` succeeds and pairs F with F over all
-    1000 samples, with σ (so a ±2σ coverage), the unit N and the metadata."""
+    1001 samples, with σ (so a ±2σ coverage), the unit N and the metadata."""
     path, run = s1_log
     rep = report(analyzer_bin, path, tmp_path)
     assert rep["metadata"] == run.metadata
     [pair] = rep["pairs"]
-    assert (pair["truth"], pair["estimate"], pair["unit"], pair["samples"]) == ("F", "F", "N", 1000)
+    assert (pair["truth"], pair["estimate"], pair["unit"], pair["samples"]) == ("F", "F", "N", 1001)
     assert pair["two_sigma_coverage"] is not None
     assert pair["correlation"] > 0.998  # the FMU identifies the load
 
@@ -269,7 +268,7 @@ def test_running_rmse_statistics_on_a_long_log_with_a_transient(analyzer_bin, tm
 @pytest.mark.parametrize("segment", [128, 256, 1024])
 def test_psd_band_on_the_s1_log_equals_scipy(analyzer_bin, s1_log, paired, tmp_path, segment):
     """The band of the S1 log with segments of 128, 256 and 1024 samples (the
-    default, longer than the 1000 samples: cut to the record, as scipy does)
+    default, longer than the 1001 samples: cut to the record, as scipy does)
     is the band of scipy.signal.welch's spectra, bin for bin."""
     path, _ = s1_log
     _, truth, estimate, _ = paired

@@ -4,20 +4,25 @@ driven through fmpy, as an importer drives it.
 What is specified here:
 
 - the FMU passes both static checkers (fmpy's validation, fmutool -check);
-- `fmpy.simulate_fmu` on the S1 input table (`scenarios s1-export`) gives the
-  estimates of the library run in-process (`scenarios replay`) on exactly the
-  inputs the FMU saw, and identifies the load (correlation >= 0.998);
-- step by step (`fmpy.fmi2.FMU2Slave`): illegal calls are refused and leave the
-  instance as it was, instances are independent, FMU states roll back and
-  restore in a new instance exactly, NaN inputs are skipped and counted,
-  tunable parameters change between steps and fixed ones do not, and a
-  communication step of several samples runs that many filter steps.
+- `fmpy.simulate_fmu` on the S1 input table (`scenarios s1-export`), as it
+  is, gives the estimates of the library run in-process (`scenarios replay`)
+  at the time stamps fmpy records them, and those track the true load at
+  their own time stamps;
+- step by step (`fmpy.fmi2.FMU2Slave`): reads after the inputs of t are the
+  library's estimates at t (direct feedthrough), reads after the step its
+  predictions; the timing rules hold for communication steps of 1 ms and
+  10 ms at a 5 ms sample time and for the Gauss-Seidel input timing;
+  illegal calls are refused and leave the instance as it was, instances are
+  independent, FMU states roll back and restore in a new instance exactly,
+  NaN inputs are skipped and counted, and tunable parameters change between
+  steps and fixed ones do not.
 
-Time alignment (the off-by-one that matters): the FMU's step from t to t + h
-runs the samples in (t, t + h] on the inputs set before the step. fmpy applies
-the input table at the start of each step (linearly interpolated), so the row
-meant for the update at t_k = k·dt is given to fmpy at time t_k - dt; on that
-grid the interpolation weight is exactly 0 or 1 and the value exact.
+Time (fmu/src/timing.rs, the FMU's documentation/index.html): an input set at
+communication point t is the measurement at t. The table holds the plant's
+outputs of t_k = k·dt, k = 0 … n; fmpy sets row k at t_k (its linear
+interpolation is exact on that grid), reads the outputs at t_0 after the
+inputs (the estimate at t_0 given row 0) and after each fmi2DoStep(t_k, dt)
+(the estimate at t_k+1 predicted from rows 0 … k).
 """
 
 from __future__ import annotations
@@ -61,7 +66,7 @@ FMUTOOL = Path(sys.executable).with_name("fmutool")
 
 @dataclass(frozen=True)
 class S1Table:
-    """`scenarios s1-export`: row k is the measurement at time[k] = (k + 1)·dt."""
+    """`scenarios s1-export`: row k is the plant's output at time[k] = k·dt."""
 
     time: np.ndarray
     z: np.ndarray  # (n, 2): z1_ddot, z2_ddot
@@ -91,8 +96,8 @@ def s1_table(scenarios_bin, tmp_path_factory) -> S1Table:
     )
     table = read_s1_table(out)
     assert table.meta["case"] == "stiffness/random" and float(table.meta["sample_time"]) == DT
-    assert len(table.time) == round(DURATION / DT)
-    np.testing.assert_allclose(table.time, (np.arange(len(table.time)) + 1) * DT, rtol=0, atol=1e-12)
+    assert len(table.time) == round(DURATION / DT) + 1
+    np.testing.assert_allclose(table.time, np.arange(len(table.time)) * DT, rtol=0, atol=1e-12)
     return table
 
 
@@ -117,11 +122,12 @@ def unzipped(s1_fmu, tmp_path_factory) -> Path:
 # --------------------------------------------------------------------------
 
 
-def replay_spec(params: dict[str, float], measurements: np.ndarray) -> dict:
+def replay_spec(params: dict[str, float], measurements: np.ndarray, first_at_prior: bool = True) -> dict:
     """A replay spec with the filter the FMU builds from `params`: the same
     Q as `noise()` in fmu/src/estimators/s1_load.rs (diagonal z, z_dot
     variances; the (F, F_dot) block q·[dt³/3, dt²/2; dt²/2, dt]), R, prior and
-    dt. NaN in `measurements` is a missing value (null)."""
+    dt. NaN in `measurements` is a missing value (null). Row 0 is measured at
+    the prior's time (the FMU's start), unless `first_at_prior` is false."""
     dt = params["sample_time"]
     qz, qv, q = params["q_z_std"], params["q_z_dot_std"], params["load_noise_intensity"]
     Q = np.zeros((6, 6))
@@ -142,13 +148,31 @@ def replay_spec(params: dict[str, float], measurements: np.ndarray) -> dict:
         "p0": [s * s for s in p0],
         "dt": dt,
         "measurements": [[None if math.isnan(v) else float(v) for v in row] for row in measurements],
+        "first_at_prior": first_at_prior,
     }
 
 
-def replay(scenarios_bin, params, measurements) -> dict:
-    out = run_replay(scenarios_bin, replay_spec(params, measurements), "SRCKF")
+def replay(scenarios_bin, params, measurements, first_at_prior: bool = True) -> dict:
+    """The library's SRCKF: `means`/`std` after each update, `predicted_means`/
+    `predicted_std` before it, `nis`."""
+    out = run_replay(scenarios_bin, replay_spec(params, measurements, first_at_prior), "SRCKF")
     out["std"] = np.sqrt(np.einsum("kii->ki", out["covariances"]))
+    out["predicted_means"] = np.array(out["predicted_means"], dtype=float)
+    out["predicted_std"] = np.array(out["predicted_std"], dtype=float)
+    out["nis"] = np.array(out["nis"], dtype=float)
     return out
+
+
+def as_read(ref: dict) -> dict:
+    """What fmpy records from the library's run: at t_0 the estimate given row
+    0 (the outputs read after the inputs at the start), at t_k (k >= 1) the
+    prediction from rows 0 … k-1 (read after the step), with the NIS of the
+    latest update."""
+    return {
+        "means": np.vstack([ref["means"][:1], ref["predicted_means"][1:]]),
+        "std": np.vstack([ref["std"][:1], ref["predicted_std"][1:]]),
+        "nis": np.concatenate([ref["nis"][:1], ref["nis"][:-1]]),
+    }
 
 
 #: Makes the FMU's ground damper evaluate k·|v| exactly as the replay model's
@@ -196,25 +220,24 @@ def test_fmutool_check_passes(s1_fmu):
 # --------------------------------------------------------------------------
 
 
-def simulate_s1(fmu: Path, table: S1Table, model_description, extra: dict | None = None):
-    """`fmpy.simulate_fmu` over the table: communication step = sample time,
-    the sensor noise set to the exported std, the table shifted one sample
-    earlier (see the module docstring). Records every output and the inputs."""
-    n = len(table.time)
-    signals = np.zeros(n, dtype=[("time", np.float64), ("z1_ddot", np.float64), ("z2_ddot", np.float64)])
-    signals["time"] = np.arange(n) * DT  # row k at t_{k+1} - dt, on fmpy's own grid
+def simulate_s1(fmu: Path, table: S1Table, model_description, extra: dict | None = None, interval: float = DT):
+    """`fmpy.simulate_fmu` over the table as it is: row k set at t_k, a
+    communication step of `interval`, the sensor noise set to the exported std.
+    Records every output and the inputs."""
+    signals = np.zeros(len(table.time), dtype=[("time", np.float64), ("z1_ddot", np.float64), ("z2_ddot", np.float64)])
+    signals["time"] = table.time
     signals["z1_ddot"], signals["z2_ddot"] = table.z[:, 0], table.z[:, 1]
     outputs = [v.name for v in model_description.modelVariables if v.causality == "output"]
     start = {"r_z1_ddot_std": table.noise_std[0], "r_z2_ddot_std": table.noise_std[1], **(extra or {})}
     result = simulate_fmu(
         str(fmu),
-        stop_time=n * DT,
-        output_interval=DT,
+        stop_time=table.time[-1],
+        output_interval=interval,
         input=signals,
         output=outputs + ["z1_ddot", "z2_ddot"],
         start_values=start,
     )
-    assert len(result) == n + 1  # t = 0 (the prior), then one row per sample
+    assert len(result) == round(table.time[-1] / interval) + 1  # t = 0, then one row per step
     return result, start
 
 
@@ -224,30 +247,19 @@ def simulated(s1_fmu, s1_table, model_description):
     return simulate_s1(s1_fmu, s1_table, model_description)
 
 
-def test_each_fmu_sample_updates_with_the_row_of_its_own_time(simulated, s1_table):
-    """The input the FMU holds after the step to t_k (fmpy records it at t_k)
-    is the one its update at t_k used; on the shifted table it is exactly the
-    exported row for t_k, and sample k's estimate is the output at t_k."""
-    result, _ = simulated
-    np.testing.assert_allclose(result["time"][1:], s1_table.time, rtol=0, atol=1e-12)
-    assert np.array_equal(result["z1_ddot"][1:], s1_table.z[:, 0])
-    assert np.array_equal(result["z2_ddot"][1:], s1_table.z[:, 1])
-
-
-def test_simulate_fmu_gives_the_library_estimates(simulated, s1_table, defaults, scenarios_bin):
-    """F, F_std and every state and std of the FMU equal the library's SRCKF
-    (`scenarios replay`, same Q, R, prior, dt) on the exported rows to 1e-12
-    relative (means on the scale each reaches, std per sample)."""
+def test_simulate_fmu_records_the_library_estimates_at_their_time_stamps(simulated, s1_table, defaults, scenarios_bin):
+    """fmpy records at t_0 the estimate given row 0 and at t_k the prediction
+    from rows 0 … k-1: F, F_std and every state and std equal the library's
+    SRCKF (`scenarios replay`, same Q, R, prior, dt) there to 1e-12 relative."""
     result, start = simulated
-    ref = replay(scenarios_bin, {**defaults, **start}, s1_table.z)
+    np.testing.assert_allclose(result["time"], s1_table.time, rtol=0, atol=1e-12)
+    ref = as_read(replay(scenarios_bin, {**defaults, **start}, s1_table.z))
     for i, name in enumerate(STATES):
-        mean, std = result[name][1:], result[f"{name}_std"][1:]
+        mean, std = result[name], result[f"{name}_std"]
         scale = np.max(np.abs(ref["means"][:, i]))
         assert np.max(np.abs(mean - ref["means"][:, i])) <= 1e-12 * scale, name
         assert np.max(np.abs(std - ref["std"][:, i]) / ref["std"][:, i]) <= 1e-12, name
-    assert np.max(np.abs(result["nis"][1:] - ref["nis"])) <= 1e-12 * np.max(ref["nis"])
-    # At t = 0 the FMU shows its prior.
-    assert result["F"][0] == defaults["x0_F"] and result["F_std"][0] == defaults["p0_F_std"]
+    assert np.max(np.abs(result["nis"] - ref["nis"])) <= 1e-12 * np.max(ref["nis"])
 
 
 def test_with_the_same_damper_law_the_fmu_is_bit_identical_to_the_library(
@@ -257,23 +269,56 @@ def test_with_the_same_damper_law_the_fmu_is_bit_identical_to_the_library(
     replay model's linear damper), every output equals the library's run bit
     for bit: the FMU layer adds nothing (same Q, R, prior, grid and inputs)."""
     result, start = simulate_s1(s1_fmu, s1_table, model_description, SAME_LAW)
-    ref = replay(scenarios_bin, {**defaults, **start}, s1_table.z)
+    ref = as_read(replay(scenarios_bin, {**defaults, **start}, s1_table.z))
     for i, name in enumerate(STATES):
-        assert np.array_equal(result[name][1:], ref["means"][:, i]), name
-        assert np.array_equal(result[f"{name}_std"][1:], ref["std"][:, i]), name
-    assert np.array_equal(result["nis"][1:], ref["nis"])
+        assert np.array_equal(result[name], ref["means"][:, i]), name
+        assert np.array_equal(result[f"{name}_std"], ref["std"][:, i]), name
+    assert np.array_equal(result["nis"], ref["nis"])
 
 
-def test_the_fmu_identifies_the_s1_load(simulated, s1_table):
-    """After the first second, the FMU's F correlates with the true load at
-    >= 0.998 (the project's goal for the stiffness-nonlinear chain), with
-    every sample used and the filter healthy."""
+def correlation_after(estimate, table: S1Table, t0: float = 1.0) -> float:
+    after = table.time >= t0
+    return float(np.corrcoef(estimate[after], table.load[after])[0, 1])
+
+
+def test_the_outputs_after_each_step_track_the_load_at_their_own_time(simulated, s1_table):
+    """What fmpy records after each step is the estimate at the step's end,
+    predicted one sample ahead: after the first second it correlates with the
+    true load at the same time stamp at >= 0.999 (read one sample late, as the
+    FMU did before, the same data gave 0.974), with every sample used and the
+    filter healthy."""
     result, _ = simulated
-    after = s1_table.time >= 1.0
-    correlation = np.corrcoef(result["F"][1:][after], s1_table.load[after])[0, 1]
-    assert correlation >= 0.998, correlation
+    assert correlation_after(result["F"], s1_table) >= 0.999
     assert np.all(result["skipped_measurements"] == 0)
     assert np.all(result["filter_healthy"])
+
+
+@pytest.mark.parametrize("interval", [0.001, 0.010])
+def test_communication_steps_of_1_and_10_ms_at_a_5_ms_sample_time(
+    interval, s1_fmu, s1_table, model_description, defaults, scenarios_bin
+):
+    """The rule for steps that are not the sample time. 1 ms: only every fifth
+    communication point is a sample instant; there the outputs read after the
+    step are the 5 ms run's bit for bit, and in between they are predictions to
+    the time read (F_std grows through each sample interval). 10 ms: the
+    sample inside each step is a prediction only, so the outputs are the
+    library's with every odd row missing."""
+    result, start = simulate_s1(s1_fmu, s1_table, model_description, SAME_LAW, interval)
+    on_grid = np.isclose(np.round(result["time"] / DT) * DT, result["time"], rtol=0, atol=1e-9)
+    rows = np.round(result["time"][on_grid] / DT).astype(int)
+    z = s1_table.z.copy()
+    if interval > DT:
+        z[1::2] = np.nan
+    ref = as_read(replay(scenarios_bin, {**defaults, **start}, z))
+    for i, name in enumerate(STATES):
+        assert np.array_equal(result[name][on_grid], ref["means"][rows, i]), name
+        assert np.array_equal(result[f"{name}_std"][on_grid], ref["std"][rows, i]), name
+    if interval < DT:
+        f_std = result["F_std"].reshape(-1)[1:].reshape(-1, 5)  # the five reads after t_k, up to t_k+1
+        assert np.all(np.diff(f_std, axis=1) > 0)
+    assert np.all(np.isfinite(result["F"]))
+    after = s1_table.time[rows] >= 1.0
+    assert np.corrcoef(result["F"][on_grid][after], s1_table.load[rows][after])[0, 1] >= 0.995
 
 
 # --------------------------------------------------------------------------
@@ -365,13 +410,19 @@ class Slave:
         return tuple(reals) + (skipped[0], healthy[0])
 
     def run(self, zs) -> list[tuple[float, ...]]:
-        """One sample per row of `zs`: set the inputs, step, read the outputs."""
-        out = []
+        """One sample per row of `zs`, as a master: set the inputs of the
+        current time, read the outputs (feedthrough), step."""
+        return self.run_both(zs)[0]
+
+    def run_both(self, zs) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+        """As `run`, also reading after each step: (at t after its inputs, right after the step to t + dt)."""
+        at, after = [], []
         for z in zs:
             self.inputs(z)
+            at.append(self.outputs())
             self.step()
-            out.append(self.outputs())
-        return out
+            after.append(self.outputs())
+        return at, after
 
     def free(self) -> None:
         if not self.freed:
@@ -645,10 +696,81 @@ def test_a_tunable_parameter_changes_between_steps_a_fixed_one_does_not(new_slav
     assert all(t[f_std] > b[f_std] for b, t in zip(after_base, after_tuned))
 
 
-def test_a_step_of_several_samples_runs_that_many_filter_steps(new_slave, s1_table):
-    """A communication step of 4·sample_time runs 4 filter steps on the held
-    input: after each, the outputs equal those of 4 steps of sample_time on
-    the same input (==). No warning is logged."""
+def test_reads_after_the_inputs_are_the_library_estimates_and_after_the_step_its_predictions(
+    new_slave, s1_table, defaults, scenarios_bin
+):
+    """A master sets the plant's outputs of t, reads, steps, reads. The first
+    read is the library's estimate at t given the measurements up to t (direct
+    feedthrough), the second its prediction to t + dt, each bit for bit; the
+    estimate at t identifies the load at its own time (>= 0.9995 after 1 s)."""
+    slave = new_slave()
+    slave.initialize(**sensor(s1_table), **SAME_LAW)
+    n = len(s1_table.time) - 1
+    at, after = (np.array(rows) for rows in slave.run_both(s1_table.z[:n]))
+    ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, s1_table.z)
+    column = {name: slave.real_outputs.index(slave.vr[name]) for name in STATES + [f"{s}_std" for s in STATES]}
+    for i, name in enumerate(STATES):
+        assert np.array_equal(at[:, column[name]], ref["means"][:n, i]), name
+        assert np.array_equal(at[:, column[f"{name}_std"]], ref["std"][:n, i]), name
+        assert np.array_equal(after[:, column[name]], ref["predicted_means"][1:, i]), name
+        assert np.array_equal(after[:, column[f"{name}_std"]], ref["predicted_std"][1:, i]), name
+    after_1s = s1_table.time[:n] >= 1.0
+    assert np.corrcoef(at[after_1s, column["F"]], s1_table.load[:n][after_1s])[0, 1] >= 0.9995
+
+
+def test_a_measurement_enters_once_however_often_the_inputs_are_set_and_read(new_slave, s1_table):
+    """Reads change nothing, and inputs set again before the step replace the
+    earlier ones: an instance that reads several times, and first sets wrong
+    inputs (read with them) before the right ones, gives exactly the outputs
+    of one that sets the right inputs once."""
+    plain, busy = new_slave("plain"), new_slave("busy")
+    for slave in (plain, busy):
+        slave.initialize(**sensor(s1_table))
+    expected = plain.run(s1_table.z[:50])
+    got = []
+    for z in s1_table.z[:50]:
+        busy.inputs(-3.0 * z)
+        busy.outputs()
+        busy.inputs(z)
+        got.append(busy.outputs())
+        assert busy.outputs() == got[-1]
+        busy.step()
+        busy.outputs()
+    assert got == expected
+
+
+def test_the_gauss_seidel_timing_takes_the_inputs_as_measured_at_the_step_end(
+    new_slave, s1_table, defaults, scenarios_bin
+):
+    """input_timing = 2 (step_end): a master that hands over the plant's
+    outputs of t + dt before fmi2DoStep(t, dt) reads after the step the
+    library's estimate at t + dt given them (bit for bit); setting the inputs
+    does not change the outputs before the step."""
+    slave = new_slave()
+    slave.fmu.setupExperiment(startTime=0.0)
+    slave.fmu.enterInitializationMode()
+    slave.set(**sensor(s1_table), **SAME_LAW)
+    slave.fmu.setInteger([slave.vr["input_timing"]], [2])
+    slave.fmu.exitInitializationMode()
+    got = []
+    for z in s1_table.z[1:200]:
+        before = slave.outputs()
+        slave.inputs(z)
+        assert slave.outputs() == before
+        slave.step()
+        got.append(slave.outputs())
+    ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, s1_table.z[1:200], first_at_prior=False)
+    got = np.array(got)
+    for i, name in enumerate(STATES):
+        assert np.array_equal(got[:, slave.real_outputs.index(slave.vr[name])], ref["means"][:, i]), name
+
+
+def test_a_step_of_several_samples_predicts_through_the_samples_inside_it(new_slave, s1_table):
+    """A communication step of 4·sample_time updates at its start and predicts
+    through the three samples inside it (a held input is not a new
+    measurement): its estimates equal those of four steps of sample_time whose
+    later three have no input (NaN). No warning is logged."""
+    estimates = STATES + [f"{s}_std" for s in STATES]
     coarse, fine = new_slave("coarse"), new_slave("fine")
     for slave in (coarse, fine):
         slave.initialize(**sensor(s1_table))
@@ -657,34 +779,37 @@ def test_a_step_of_several_samples_runs_that_many_filter_steps(new_slave, s1_tab
         coarse.inputs(z)
         coarse.step(4 * DT)
         fine.inputs(z)
-        for _ in range(4):
+        fine.step(DT)
+        for _ in range(3):
+            fine.inputs([math.nan, math.nan])
             fine.step(DT)
-        assert coarse.outputs() == fine.outputs(), k
+        assert coarse.get(*estimates) == fine.get(*estimates), k
     assert not coarse.warnings() and not coarse.errors()
 
 
-def test_a_step_between_samples_warns_once_and_shows_the_last_sample(new_slave, s1_table):
+def test_a_step_between_samples_warns_once_and_reads_the_prediction_to_its_end(new_slave, s1_table):
     """A step that ends between two samples returns OK, logs the documented
-    warning (once) and shows the outputs of the last sample reached; stepping
-    back onto the grid continues the same filter."""
+    warning (once) and reads the prediction to its end: its F_std lies between
+    those at the samples around it. Stepping back onto the grid continues the
+    same filter: the estimates equal an instance stepping by sample_time
+    (without an input at the sample the odd step skipped)."""
     odd, even = new_slave("odd"), new_slave("even")
     for slave in (odd, even):
         slave.initialize(**sensor(s1_table))
         slave.inputs(s1_table.z[0])
-    expected = []
-    for _ in range(3):
-        even.step(DT)
-        expected.append(even.outputs())
+    even.step(DT)
+    std_at_1 = even.get("F_std")[0]
+    even.inputs([math.nan, math.nan])
+    even.step(DT)
+    std_at_2 = even.get("F_std")[0]
 
-    odd.step(1.5 * DT)  # samples at 0.005 only
-    assert odd.outputs() == expected[0]
-    odd.step(0.5 * DT)  # back on the grid: the sample at 0.010
-    assert odd.outputs() == expected[1]
-    odd.step(0.25 * DT)  # off the grid again: no sample, no second warning
-    assert odd.outputs() == expected[1]
-    odd.step(0.75 * DT)
-    assert odd.outputs() == expected[2]
+    odd.step(1.5 * DT)  # the sample at 0.005 is inside the step: a prediction
+    assert std_at_1 < odd.get("F_std")[0] < std_at_2
+    odd.step(0.5 * DT)  # back on the grid at 0.010
+    estimates = STATES + [f"{s}_std" for s in STATES]
+    assert odd.get(*estimates) == even.get(*estimates)
+    odd.step(0.25 * DT)  # off the grid again: no second warning
     warnings = odd.warnings()
     assert len(warnings) == 1, warnings
-    assert "between filter samples" in warnings[0] and "reported once" in warnings[0]
-    assert not even.warnings()
+    assert "not a sample instant" in warnings[0] and "reported once" in warnings[0]
+    assert not [w for w in even.warnings() if "sample instant" in w]

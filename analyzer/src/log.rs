@@ -24,8 +24,12 @@ use crate::error::LogError;
 pub const MEASUREMENTS: &str = "/measurements";
 /// The truth channel (where a simulator knows it).
 pub const TRUTH: &str = "/truth";
-/// The estimator's outputs.
+/// The estimator's outputs: for an estimator FMU, read at each time after the
+/// inputs of that time were set (the estimate given the measurements up to it).
 pub const ESTIMATE: &str = "/estimate";
+/// An estimator FMU's outputs read right after `fmi2DoStep(t, h)`, stamped
+/// `t + h`: the estimate there predicted from the measurements up to `t`.
+pub const PREDICTION: &str = "/prediction";
 /// The name of the metadata record.
 pub const METADATA: &str = "kalfmu";
 

@@ -1,7 +1,7 @@
 //! `analyzer`: metrics and recordings from kalfmu MCAP logs.
 //!
 //! Usage:
-//!   analyzer report RUN.mcap [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]…
+//!   analyzer report RUN.mcap [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]… [--estimate-topic /prediction]
 //!
 //! Exit codes: 0 done, 1 the log or the analysis failed (the message names
 //! the file, channel and time), 2 bad arguments.
@@ -46,6 +46,9 @@ struct ReportArgs {
     /// Welch segment length in samples.
     #[arg(long, default_value_t = 1024)]
     psd_segment: usize,
+    /// The channel of the estimates (e.g. /prediction: an FMU's outputs read right after each step).
+    #[arg(long, default_value = analyzer::log::ESTIMATE)]
+    estimate_topic: String,
 }
 
 fn parse_pair(s: &str) -> Result<(String, String), String> {
@@ -74,6 +77,7 @@ fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
                 rmse_window: args.rmse_window,
                 psd_segment: args.psd_segment,
                 pairs: args.pairs.clone(),
+                estimate_topic: args.estimate_topic.clone(),
                 ..Options::default()
             };
             let report = analyse(&run, &options)?;

@@ -1,7 +1,7 @@
 //! Pairs estimated signals with their truth and computes every metric.
 //!
 //! Pairing rule: a signal `X` on `/truth` pairs with the signal of the same
-//! name on `/estimate`; `X_std` on `/estimate`, if present, is its standard
+//! name on `/estimate` (or the channel [`Options::estimate_topic`] names); `X_std` on `/estimate`, if present, is its standard
 //! deviation (for the ±2σ band and its coverage). `--pair truth.X=estimate.Y`
 //! adds or replaces a pair. Samples are matched by time stamp; only the
 //! times both channels have are compared.
@@ -29,11 +29,20 @@ pub struct Options {
     pub agreement_db: f64,
     /// Extra or replacing pairs `(truth signal, estimate signal)`.
     pub pairs: Vec<(String, String)>,
+    /// The channel of the estimates; default `/estimate` (`/prediction` holds
+    /// an estimator FMU's outputs read right after each step).
+    pub estimate_topic: String,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Self { rmse_window: 1.0, psd_segment: 1024, agreement_db: 3.0, pairs: Vec::new() }
+        Self {
+            rmse_window: 1.0,
+            psd_segment: 1024,
+            agreement_db: 3.0,
+            pairs: Vec::new(),
+            estimate_topic: ESTIMATE.to_string(),
+        }
     }
 }
 
@@ -100,7 +109,8 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     let file = &run.file;
     let fail = |what: String| LogError::Analysis { file: file.clone(), what };
     let truth = run.channel(TRUTH)?;
-    let estimate = run.channel(ESTIMATE)?;
+    let topic = options.estimate_topic.as_str();
+    let estimate = run.channel(topic)?;
     let mut pairs: Vec<(String, String)> = truth
         .signals
         .iter()
@@ -113,7 +123,7 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     }
     if pairs.is_empty() {
         return Err(fail(format!(
-            "no signal of {TRUTH} has a namesake on {ESTIMATE}; name one with --pair truth.X=estimate.Y"
+            "no signal of {TRUTH} has a namesake on {topic}; name one with --pair truth.X=estimate.Y"
         )));
     }
     // Samples at the times both channels have (time stamps are integral ns).
@@ -122,7 +132,7 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     let common: Vec<(usize, usize)> =
         truth.time.iter().enumerate().filter_map(|(i, &t)| estimate_index.get(&key(t)).map(|&j| (i, j))).collect();
     if common.len() < 4 {
-        return Err(fail(format!("{TRUTH} and {ESTIMATE} share only {} time stamps", common.len())));
+        return Err(fail(format!("{TRUTH} and {topic} share only {} time stamps", common.len())));
     }
     let time: Vec<f64> = common.iter().map(|&(i, _)| truth.time[i]).collect();
     let dt = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
@@ -136,7 +146,7 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     let mut reports = Vec::new();
     for (t_name, e_name) in pairs {
         let t_signal = truth.signal(&t_name).ok_or_else(|| fail(format!("{TRUTH} has no signal '{t_name}'")))?;
-        let e_signal = estimate.signal(&e_name).ok_or_else(|| fail(format!("{ESTIMATE} has no signal '{e_name}'")))?;
+        let e_signal = estimate.signal(&e_name).ok_or_else(|| fail(format!("{topic} has no signal '{e_name}'")))?;
         let picked = |values: &[f64], channel: &str, signal: &str, which: fn(&(usize, usize)) -> usize| {
             let out: Vec<f64> = common.iter().map(|p| values[which(p)]).collect();
             match out.iter().position(|v| !v.is_finite()) {
@@ -150,10 +160,10 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
             }
         };
         let truth_values = picked(&t_signal.values, TRUTH, &t_name, |p| p.0)?;
-        let estimate_values = picked(&e_signal.values, ESTIMATE, &e_name, |p| p.1)?;
+        let estimate_values = picked(&e_signal.values, topic, &e_name, |p| p.1)?;
         let sigma_name = format!("{e_name}_std");
         let sigma = match estimate.signal(&sigma_name) {
-            Some(s) => Some(picked(&s.values, ESTIMATE, &sigma_name, |p| p.1)?),
+            Some(s) => Some(picked(&s.values, topic, &sigma_name, |p| p.1)?),
             None => None,
         };
         let comparison = compare(&truth_values, &estimate_values, time[0], dt, options.rmse_window);

@@ -99,6 +99,42 @@ fn no_filter_allocates_per_step_on_the_s1_model() {
     }
 }
 
+/// Copying a belief into a twin filter (what an FMU does for every read
+/// between samples) allocates nothing once the snapshot's buffers exist, and
+/// the twin then steps exactly as the original.
+#[test]
+fn copying_a_belief_between_twins_allocates_nothing_and_is_exact() {
+    let (zs, _) = s1_measurements(50, 0.005, 1.0, 0.05, 4);
+    for (mut original, mut twin) in s1_filters().into_iter().zip(s1_filters()) {
+        for z in &zs[..20] {
+            original.predict(&[], 0.005).unwrap();
+            original.update(z).unwrap();
+        }
+        let mut copy = original.snapshot();
+        let n = allocations_during(|| {
+            for z in &zs[20..] {
+                original.snapshot_into(&mut copy);
+                twin.restore(&copy).unwrap();
+                original.predict(&[], 0.005).unwrap();
+                original.update(z).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "{}: {n} allocations copying beliefs", original.kind());
+        original.snapshot_into(&mut copy);
+        twin.restore(&copy).unwrap();
+        for z in &zs[..10] {
+            for f in [&mut original, &mut twin] {
+                f.predict(&[], 0.005).unwrap();
+                f.update(z).unwrap();
+            }
+        }
+        let bits = |f: &dyn StateEstimator| -> Vec<u64> {
+            f.mean().iter().chain(f.covariance().iter()).map(|x| x.to_bits()).collect()
+        };
+        assert_eq!(bits(original.as_ref()), bits(twin.as_ref()), "{}", original.kind());
+    }
+}
+
 #[test]
 fn no_filter_allocates_per_step_on_the_24_state_chain() {
     let model = || Discretized::rk4(SpringChainForces::default(), 1);

@@ -5,9 +5,15 @@
 //!   one sample (`h = sample_time`): `fmi2SetReal` of the two inputs,
 //!   `fmi2DoStep`, `fmi2GetReal` of `F` — the exported functions called
 //!   directly (no dlopen; a call through a function pointer costs the same);
+//!   (the FMU updates at `t` with the inputs and predicts to `t + h`; `F` is
+//!   read after the step);
 //! * `do_step/fmi2_c_abi_all_outputs`: the same, reading all 13 Real outputs;
+//! * `do_step/fmi2_c_abi_feedthrough`: `fmi2SetReal`, `fmi2GetReal` of `F`
+//!   (the estimate at `t` given the inputs: the update, made on the FMU's
+//!   twin filter), `fmi2DoStep` (which takes that update over by a copy and
+//!   predicts);
 //! * `do_step/library`: the SRCKF built from the estimator crate with the
-//!   FMU's default parameters: `predict(&[], dt)`, `update(&z)`, read `F`.
+//!   FMU's default parameters: `update(&z)`, `predict(&[], dt)`, read `F`.
 //!
 //! Both run on the same seeded accelerations (a sum of sines), cycled; the FMU
 //! has no stop time, so neither ever resets. Every status is checked.
@@ -144,7 +150,11 @@ fn main() {
     let mut group = criterion.benchmark_group("do_step");
     group.sample_size(50).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
 
-    for (bench, read) in [("fmi2_c_abi", &load[..]), ("fmi2_c_abi_all_outputs", &outputs[..])] {
+    for (bench, read, feedthrough) in [
+        ("fmi2_c_abi", &load[..], false),
+        ("fmi2_c_abi_all_outputs", &outputs[..], false),
+        ("fmi2_c_abi_feedthrough", &load[..], true),
+    ] {
         let name = CString::new(bench).expect("a name");
         let c = fmu_instance(&name, &guid, &callbacks);
         let mut k = 0u64;
@@ -155,9 +165,18 @@ fn main() {
                 // SAFETY: a live instance; arrays of the lengths given.
                 unsafe {
                     let set = fmu::fmi2SetReal(c, inputs.as_ptr(), 2, zk.as_ptr());
+                    let mut read_at = |when: bool| {
+                        if when {
+                            fmu::fmi2GetReal(c, read.as_ptr(), read.len(), out.as_mut_ptr())
+                        } else {
+                            Fmi2Status::Ok
+                        }
+                    };
+                    let get_before = read_at(feedthrough);
                     let step = fmu::fmi2DoStep(c, k as f64 * dt, dt, 1);
-                    let get = fmu::fmi2GetReal(c, read.as_ptr(), read.len(), out.as_mut_ptr());
-                    assert_eq!((set, step, get), (Fmi2Status::Ok, Fmi2Status::Ok, Fmi2Status::Ok), "sample {k}");
+                    let get = read_at(!feedthrough);
+                    let ok = (Fmi2Status::Ok, Fmi2Status::Ok, Fmi2Status::Ok, Fmi2Status::Ok);
+                    assert_eq!((set, get_before, step, get), ok, "sample {k}");
                 }
                 k += 1;
                 black_box(out[0])
@@ -172,8 +191,8 @@ fn main() {
     group.bench_function("library", |b| {
         b.iter(|| {
             let zk = &z[k % SAMPLES];
-            filter.predict(&[], dt).expect("predict");
             filter.update(black_box(zk)).expect("update");
+            filter.predict(&[], dt).expect("predict");
             k += 1;
             black_box(filter.mean()[2])
         })
@@ -215,8 +234,8 @@ fn interleaved(
         let start = Instant::now();
         for j in 0..BLOCK {
             let k = block * BLOCK + j;
-            filter.predict(&[], dt).expect("predict");
             filter.update(black_box(&z[k % SAMPLES])).expect("update");
+            filter.predict(&[], dt).expect("predict");
             black_box(filter.mean()[2]);
         }
         let library_time = start.elapsed();

@@ -1,13 +1,11 @@
 //! One FMU instance: everything per instance, nothing global. The C ABI layer
 //! (`lib.rs`) checks pointers and the call order and then calls in here.
 //!
-//! Time: the filter runs one predict + update per `sample_time`, on the grid
-//! `start + k·sample_time` (never accumulated, so it does not drift). A
-//! communication step from `t` to `t + h` runs every sample of that grid in
-//! `(t, t + h]` on the inputs as they were set for the step (held). When `h` is
-//! not a multiple of the sample time the last samples do not coincide with the
-//! communication points: the step still runs, the outputs are those of the
-//! latest sample, and a warning says so once per instance.
+//! Time semantics (which sample takes which inputs, what a read shows) are
+//! `timing.rs`; this file keeps the values, the life cycle and the logging.
+//! Outputs are computed on demand: setting an input, a tunable parameter or
+//! stepping marks them stale, and the next get computes them (as the
+//! Reference-FMUs do), so a read after new inputs has direct feedthrough.
 
 use std::ffi::CString;
 
@@ -16,7 +14,8 @@ use estimator::{StateEstimator, UnscentedParams};
 use crate::estimators::{self, Descriptor};
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
 use crate::state::ModelState;
-use crate::variables::{Causality, Parameters, Role, Variability};
+use crate::timing::{Estimation, InputTiming};
+use crate::variables::{Causality, Parameters, Role, Variability, Variable};
 
 /// The log categories of `<LogCategories>`.
 pub const LOG_CATEGORIES: [(&str, &str); 4] = [
@@ -39,12 +38,18 @@ pub struct Instance {
     pub(crate) start_time: f64,
     pub(crate) stop_time: Option<f64>,
     pub(crate) time: f64,
-    /// Filter samples done since the start time.
-    pub(crate) samples: u64,
     pub(crate) last_successful_time: f64,
-    pub(crate) filter: Option<Box<dyn StateEstimator>>,
+    /// The filter and its clock, from `fmi2ExitInitializationMode` on.
+    pub(crate) estimation: Option<Estimation>,
+    /// The inputs as they stand, by measurement row (non-finite: missing).
     measurement: Vec<f64>,
-    /// Per measurement channel: a non-finite input was already reported.
+    /// Per measurement row: the importer has set this input at least once.
+    pub(crate) input_ever_set: Vec<bool>,
+    /// An input was set at the current communication point.
+    pub(crate) inputs_set: bool,
+    /// The output values are not those of the current time and inputs.
+    outputs_stale: bool,
+    /// Per measurement row: a non-finite value, or the input never being set, was already reported.
     pub(crate) missing_reported: Vec<bool>,
     pub(crate) off_grid_reported: bool,
 }
@@ -74,10 +79,12 @@ impl Instance {
             start_time: 0.0,
             stop_time: None,
             time: 0.0,
-            samples: 0,
             last_successful_time: 0.0,
-            filter: None,
-            measurement: vec![0.0; m],
+            estimation: None,
+            measurement: vec![f64::NAN; m],
+            input_ever_set: vec![false; m],
+            inputs_set: false,
+            outputs_stale: false,
             missing_reported: vec![false; m],
             off_grid_reported: false,
         };
@@ -94,9 +101,11 @@ impl Instance {
         self.start_time = 0.0;
         self.stop_time = None;
         self.time = 0.0;
-        self.samples = 0;
         self.last_successful_time = 0.0;
-        self.filter = None;
+        self.estimation = None;
+        self.input_ever_set.iter_mut().for_each(|s| *s = false);
+        self.inputs_set = false;
+        self.outputs_stale = false;
         self.missing_reported.iter_mut().for_each(|r| *r = false);
         self.off_grid_reported = false;
     }
@@ -193,9 +202,10 @@ impl Instance {
         let tunable_changed =
             updates.iter().any(|&(i, _)| self.descriptor.variables[i].variability == Variability::Tunable);
         if self.state == ModelState::StepComplete && tunable_changed {
-            let noise = (self.descriptor.build_noise)(&Parameters::new(&self.descriptor.variables, &self.values));
-            let applied = noise.and_then(|n| match self.filter.as_mut() {
-                Some(f) => f.set_noise(n).map_err(|e| e.to_string()),
+            let p = Parameters::new(&self.descriptor.variables, &self.values);
+            let noise = p.positive("sample_time").and_then(|dt| (self.descriptor.build_noise)(&p, dt));
+            let applied = noise.and_then(|n| match self.estimation.as_mut() {
+                Some(e) => e.set_noise(n).map_err(|e| e.to_string()),
                 None => Ok(()),
             });
             if let Err(why) = applied {
@@ -204,7 +214,15 @@ impl Instance {
                 }
                 return self.error(&format!("tunable parameters refused, values unchanged: {why}"));
             }
+            self.outputs_stale = true;
             self.log(Fmi2Status::Ok, "logEvents", "tunable parameters applied to the filter noise");
+        }
+        for &(i, _) in updates {
+            if let Role::Measurement(row) = self.descriptor.variables[i].role {
+                self.input_ever_set[row] = true;
+                self.inputs_set = true;
+                self.outputs_stale = true;
+            }
         }
         Fmi2Status::Ok
     }
@@ -230,42 +248,26 @@ impl Instance {
 
     /// `fmi2ExitInitializationMode`: builds the filter from the parameters.
     pub fn exit_initialization(&mut self) -> Fmi2Status {
-        match self.build_filter() {
-            Ok(filter) => {
-                self.filter = Some(filter);
-                self.write_outputs();
+        match build_estimation(&self.descriptor, &self.values, self.start_time) {
+            Ok(estimation) => {
+                let kind = estimation.filter().kind();
+                self.estimation = Some(estimation);
                 self.state = ModelState::StepComplete;
-                self.log(
-                    Fmi2Status::Ok,
-                    "logEvents",
-                    &format!(
-                        "initialised: {} at t = {}",
-                        self.filter.as_ref().map_or("", |f| f.kind().name()),
-                        self.time
-                    ),
-                );
+                self.outputs_stale = true;
+                self.log(Fmi2Status::Ok, "logEvents", &format!("initialised: {kind} at t = {}", self.time));
                 Fmi2Status::Ok
             }
             Err(why) => self.error(&format!("fmi2ExitInitializationMode: cannot build the estimator: {why}")),
         }
     }
 
-    fn build_filter(&self) -> Result<Box<dyn StateEstimator>, String> {
-        build_filter(&self.descriptor, &self.values, self.start_time)
-    }
-
     /// In initialisation mode the outputs show the prior of the current
     /// parameters (left as they were while the parameters do not build a filter).
     pub fn refresh_initial_outputs(&mut self) {
-        if let Ok(filter) = self.build_filter() {
-            self.filter = Some(filter);
-            self.write_outputs();
-            self.filter = None;
+        if let Ok(filter) = build_filter(&self.descriptor, &self.values, self.start_time) {
+            let nis = filter.innovation().nis();
+            write_outputs(&self.descriptor.variables, &mut self.values, Some(filter.as_ref()), nis, 0);
         }
-    }
-
-    pub fn sample_time(&self) -> f64 {
-        Parameters::new(&self.descriptor.variables, &self.values).get("sample_time").unwrap_or(f64::NAN)
     }
 
     /// `fmi2DoStep`.
@@ -283,70 +285,118 @@ impl Instance {
                 return self.error(&format!("fmi2DoStep: step to {} passes the stop time {stop}", t + h));
             }
         }
-        let ts = self.sample_time();
-        let end = t + h;
-        let grid_tolerance = 1e-9 * ts;
         self.load_measurement();
-        loop {
-            let next = self.start_time + (self.samples + 1) as f64 * ts;
-            if next > end + grid_tolerance {
-                break;
-            }
-            let filter = self.filter.as_mut().expect("a filter exists from StepComplete on");
-            let result = filter.predict(&[], ts).and_then(|_| filter.update(&self.measurement).map(|_| ()));
-            if let Err(e) = result {
-                self.state = ModelState::StepFailed;
-                self.set_role(Role::FilterHealthy, 0.0);
-                self.last_successful_time = self.start_time + self.samples as f64 * ts;
-                self.log(
-                    Fmi2Status::Discard,
-                    "logStatusError",
-                    &format!(
-                        "filter failed at t = {next} s (sample {}): {e}; the last good estimate is at t = {} s",
-                        self.samples + 1,
-                        self.last_successful_time
-                    ),
-                );
-                return Fmi2Status::Discard;
-            }
-            self.samples += 1;
-            let skipped = self.measurement.iter().filter(|z| !z.is_finite()).count();
-            if skipped > 0 {
-                let total = self.role_value(Role::SkippedMeasurements) + skipped as f64;
-                self.set_role(Role::SkippedMeasurements, total);
-            }
-            self.write_outputs();
+        let Some(estimation) = self.estimation.as_mut() else {
+            return self.error("fmi2DoStep: no filter (internal state lost)");
+        };
+        let end = t + h;
+        if let Err(failure) = estimation.step(t, h, &self.measurement) {
+            // Show the last good estimate, as it is, and say when it was.
+            let (nis, skipped) = (estimation.nis(), estimation.skipped());
+            write_outputs(&self.descriptor.variables, &mut self.values, Some(estimation.filter()), nis, skipped);
+            self.outputs_stale = false;
+            self.state = ModelState::StepFailed;
+            self.set_role(Role::FilterHealthy, 0.0);
+            self.last_successful_time = failure.last_good;
+            self.log(
+                Fmi2Status::Discard,
+                "logStatusError",
+                &format!(
+                    "filter failed at t = {} s (sample {}): {}; the outputs are the last good estimate, at t = {} s",
+                    failure.time, failure.sample, failure.error, failure.last_good
+                ),
+            );
+            return Fmi2Status::Discard;
         }
-        let last_sample = self.start_time + self.samples as f64 * ts;
-        if end - last_sample > grid_tolerance && !self.off_grid_reported {
+        let off_grid = !estimation.at_current_sample(end);
+        let timing = estimation.timing();
+        if off_grid && !self.off_grid_reported {
             self.off_grid_reported = true;
+            let ts = self.sample_time();
+            let rule = match timing {
+                InputTiming::AtCommunicationPoint => "inputs set there are not measurements",
+                InputTiming::AtStepEnd => "inputs set for it are not measurements",
+            };
             self.log(
                 Fmi2Status::Warning,
                 "logStatusWarning",
                 &format!(
-                    "communication step ends at t = {end}, between filter samples (sample_time {ts}): outputs are those of the sample at t = {last_sample}; reported once"
+                    "communication point t = {end} s is not a sample instant (start + k·{ts} s): {rule}, and the outputs there are predictions; use a step that is a multiple of sample_time to use every sample (reported once)"
                 ),
             );
         }
         self.time = end;
         self.last_successful_time = end;
+        self.inputs_set = false;
+        self.outputs_stale = true;
         Fmi2Status::Ok
     }
 
-    /// Copies the inputs into the measurement vector, reporting each channel's
-    /// first non-finite value.
+    /// `fmi2Terminate`: the outputs stay those of the final time.
+    pub fn terminate(&mut self) {
+        self.refresh_outputs();
+        self.state = ModelState::Terminated;
+    }
+
+    /// The outputs are computed afresh at the next get (after a restored FMU state).
+    pub(crate) fn mark_outputs_stale(&mut self) {
+        self.outputs_stale = true;
+    }
+
+    /// Before a get: computes the outputs of the current time and inputs if
+    /// anything changed since they were last computed. A read that cannot be
+    /// computed sets the estimates to NaN and says why.
+    pub fn refresh_outputs(&mut self) {
+        if !self.outputs_stale || self.state != ModelState::StepComplete {
+            return;
+        }
+        self.outputs_stale = false;
+        self.load_measurement();
+        let Some(estimation) = self.estimation.as_mut() else { return };
+        let p = Parameters::new(&self.descriptor.variables, &self.values);
+        let build_noise = self.descriptor.build_noise;
+        let noise_over = |dt: f64| build_noise(&p, dt);
+        let inputs = self.inputs_set.then_some(self.measurement.as_slice());
+        let failed = match estimation.read(self.time, inputs, &noise_over) {
+            Ok(reading) => {
+                let (belief, nis, skipped) = (Some(reading.belief), reading.nis, reading.skipped);
+                write_outputs(&self.descriptor.variables, &mut self.values, belief, nis, skipped);
+                None
+            }
+            Err(why) => Some(why),
+        };
+        if let Some(why) = failed {
+            let skipped = self.role_value(Role::SkippedMeasurements) as u64;
+            write_outputs(&self.descriptor.variables, &mut self.values, None, f64::NAN, skipped);
+            self.log(
+                Fmi2Status::Warning,
+                "logStatusWarning",
+                &format!("the outputs at t = {} s are NaN: {why}", self.time),
+            );
+        }
+    }
+
+    pub fn sample_time(&self) -> f64 {
+        Parameters::new(&self.descriptor.variables, &self.values).get("sample_time").unwrap_or(f64::NAN)
+    }
+
+    /// Copies the inputs into the measurement vector: NaN for an input never
+    /// set (its start value is no measurement); reports each channel's first
+    /// missing value.
     fn load_measurement(&mut self) {
         for (i, v) in self.descriptor.variables.iter().enumerate() {
             if let Role::Measurement(row) = v.role {
-                let z = self.values[i];
+                let ever_set = self.input_ever_set[row];
+                let z = if ever_set { self.values[i] } else { f64::NAN };
                 self.measurement[row] = z;
                 if !z.is_finite() && !self.missing_reported[row] {
                     self.missing_reported[row] = true;
+                    let what = if ever_set { format!("is {z}") } else { "has never been set".to_string() };
                     self.log(
                         Fmi2Status::Warning,
                         "logStatusWarning",
                         &format!(
-                            "input {} is {z} at t = {}: treated as missing (reported once per input)",
+                            "input {} {what} at t = {}: treated as missing (reported once per input)",
                             v.name, self.time
                         ),
                     );
@@ -354,17 +404,24 @@ impl Instance {
             }
         }
     }
+}
 
-    /// Writes the estimates, their deviations and the NIS to the outputs.
-    fn write_outputs(&mut self) {
-        let Some(filter) = self.filter.as_ref() else { return };
-        for (v, x) in self.descriptor.variables.iter().zip(self.values.iter_mut()) {
-            match v.role {
-                Role::Estimate(i) => *x = filter.mean()[i],
-                Role::EstimateStd(i) => *x = filter.variance(i).max(0.0).sqrt(),
-                Role::Nis => *x = filter.innovation().nis(),
-                _ => {}
-            }
+/// Writes the estimates of `belief` (NaN without one), their standard
+/// deviations, the NIS and the skipped count into the output values.
+fn write_outputs(
+    variables: &[Variable],
+    values: &mut [f64],
+    belief: Option<&dyn StateEstimator>,
+    nis: f64,
+    skipped: u64,
+) {
+    for (v, x) in variables.iter().zip(values.iter_mut()) {
+        match v.role {
+            Role::Estimate(i) => *x = belief.map_or(f64::NAN, |b| b.mean()[i]),
+            Role::EstimateStd(i) => *x = belief.map_or(f64::NAN, |b| b.variance(i).max(0.0).sqrt()),
+            Role::Nis => *x = nis,
+            Role::SkippedMeasurements => *x = skipped as f64,
+            _ => {}
         }
     }
 }
@@ -378,13 +435,24 @@ pub(crate) fn build_filter(
 ) -> Result<Box<dyn StateEstimator>, String> {
     let p = Parameters::new(&descriptor.variables, values);
     let kind = estimators::filter_kind(p.get("filter")?)?;
-    p.positive("sample_time")?;
+    let sample_time = p.positive("sample_time")?;
     let ukf = UnscentedParams { alpha: p.get("ukf_alpha")?, beta: p.get("ukf_beta")?, kappa: p.get("ukf_kappa")? };
-    let noise = (descriptor.build_noise)(&p)?;
+    let noise = (descriptor.build_noise)(&p, sample_time)?;
     let mut filter = (descriptor.build_filter)(&p, kind, ukf, noise)?;
     // Move the belief to the start time without touching its numbers.
     let mut at_start = filter.snapshot();
     at_start.time = start_time;
     filter.restore(&at_start).map_err(|e| e.to_string())?;
     Ok(filter)
+}
+
+/// The estimation of an instance with these parameter values from `start_time`:
+/// the filter, its twin for reads, the grid and the input timing.
+pub(crate) fn build_estimation(descriptor: &Descriptor, values: &[f64], start_time: f64) -> Result<Estimation, String> {
+    let p = Parameters::new(&descriptor.variables, values);
+    let timing = InputTiming::from_value(p.get("input_timing")?)?;
+    let sample_time = p.positive("sample_time")?;
+    let filter = build_filter(descriptor, values, start_time)?;
+    let reader = build_filter(descriptor, values, start_time)?;
+    Ok(Estimation::new(filter, reader, start_time, sample_time, timing))
 }

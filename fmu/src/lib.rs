@@ -27,6 +27,7 @@ pub mod instance;
 pub mod model_description;
 mod serialize;
 pub mod state;
+pub mod timing;
 pub mod variables;
 
 use std::ffi::{c_char, CStr, CString};
@@ -289,7 +290,7 @@ pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Sta
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status {
     with_instance(c, "fmi2Terminate", state::TERMINATE, |inst| {
-        inst.state = ModelState::Terminated;
+        inst.terminate();
         Fmi2Status::Ok
     })
 }
@@ -320,6 +321,7 @@ unsafe fn get_values<T>(
         let (Some(vrs), Some(out)) = (unsafe { slice(vr, nvr) }, unsafe { slice_mut(value, nvr) }) else {
             return inst.error(&format!("{function}: vr or value is NULL but nvr = {nvr}"));
         };
+        inst.refresh_outputs();
         for (slot, &r) in out.iter_mut().zip(vrs) {
             let Some(var) = inst.descriptor.variables.get(r as usize) else {
                 return inst.error(&format!("{function}: {}", inst.unknown(r)));

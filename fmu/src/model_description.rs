@@ -84,10 +84,15 @@ pub fn model_description(d: &Descriptor) -> String {
         x.push_str("    </ScalarVariable>\n");
     }
     x.push_str("  </ModelVariables>\n  <ModelStructure>\n    <Outputs>\n");
-    let outputs: Vec<usize> =
-        d.variables.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).map(|(i, _)| i + 1).collect();
+    let indices = |causality: Causality| -> Vec<usize> {
+        d.variables.iter().enumerate().filter(|(_, v)| v.causality == causality).map(|(i, _)| i + 1).collect()
+    };
+    let outputs = indices(Causality::Output);
+    // Every output is the estimate given the measurements up to the time it is
+    // read, so it depends on every input of that time: direct feedthrough.
+    let inputs: Vec<String> = indices(Causality::Input).iter().map(usize::to_string).collect();
     for i in &outputs {
-        let _ = writeln!(x, r#"      <Unknown index="{i}"/>"#);
+        let _ = writeln!(x, r#"      <Unknown index="{i}" dependencies="{}"/>"#, inputs.join(" "));
     }
     x.push_str("    </Outputs>\n    <InitialUnknowns>\n");
     for i in &outputs {
@@ -152,6 +157,40 @@ fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&apos;")
 }
 
+/// How the FMU treats time, for `documentation/index.html` (the rules of `timing.rs`).
+const TIMING: &str = concat!(
+    "<p>The filter runs one predict + update per <code>sample_time</code> on the grid t<sub>k</sub> = start + ",
+    "k·sample_time (counted, never accumulated). With the default <code>input_timing</code> = 1 ",
+    "(<code>communication_point</code>), an input set at communication point t is the measurement at t, as FMI ",
+    "defines it: a master sets the plant's outputs of t, calls fmi2DoStep(t, h), and reads our outputs.</p>\n",
+    "<pre>\n",
+    " master:  set u(t)    get y        fmi2DoStep(t, h)          get y         set u(t+h)    get y\n",
+    " FMU:               x̂(t | t)     update at t with u(t),    x̂(t+h | t)                  x̂(t+h | t+h)\n",
+    "                                 predict to t + h\n",
+    "          └ direct feedthrough ┘                                         └ direct feedthrough ┘\n",
+    "</pre>\n<ul>\n",
+    "<li>A read always gives the estimate at the time read, with its standard deviation. Once an input is set ",
+    "at t (a sample instant), outputs read at t are the estimate given the measurements up to t (direct ",
+    "feedthrough, declared in ModelStructure). Read right after fmi2DoStep(t, h), before inputs are set at ",
+    "t + h, they are the estimate at t + h predicted from the measurements up to t.</li>\n",
+    "<li>A measurement is used once: the update at t is made when the master steps on from t (or at a read ",
+    "after the inputs were set, and redone from the prediction if they are set again before the step).</li>\n",
+    "<li>Samples strictly inside a communication step longer than <code>sample_time</code> are predictions: the ",
+    "input held over the step is the measurement of its start, not of later instants.</li>\n",
+    "<li>A communication point off the grid (a step shorter than <code>sample_time</code>, or not a multiple of ",
+    "it) is not a sample instant: inputs set there are not measurements, and outputs read there are the ",
+    "prediction from the last sample to that time (with the process noise of that interval). A warning says so ",
+    "once. A master that steps by a multiple of <code>sample_time</code> has every sample it hands over used.</li>\n",
+    "<li>An input never set is missing, not zero. A NaN or infinite input leaves its row out of the update, is ",
+    "counted in <code>skipped_measurements</code> and reported once per input.</li>\n",
+    "<li><code>input_timing</code> = 2 (<code>step_end</code>) is for masters that step the plant first and hand ",
+    "over its outputs of t + h before our fmi2DoStep(t, h) (Gauss–Seidel): those inputs are the measurement at ",
+    "t + h, the step updates there, and the outputs after the step are x̂(t+h | t+h); setting inputs does not ",
+    "change the outputs.</li>\n",
+    "<li>A filter failure returns fmi2Discard with the time and the reason; the outputs stay at the last good ",
+    "estimate, whose time <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> gives.</li>\n</ul>",
+);
+
 /// `documentation/index.html`: the study, the time semantics, and a table of
 /// every variable.
 pub fn documentation(d: &Descriptor) -> String {
@@ -163,15 +202,9 @@ pub fn documentation(d: &Descriptor) -> String {
          td,th{{border:1px solid #ccc;padding:0.2em 0.5em;text-align:left}}</style></head><body>\n\
          <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
          <h2>The study</h2>\n{doc}\n\
-         <h2>How it steps</h2>\n<p>One predict + update of the filter per <code>sample_time</code>, on the grid \
-         start + k·sample_time. A communication step from t to t + h runs every sample in (t, t + h] on the inputs \
-         held as set before the step. If h is not a multiple of the sample time, the outputs are those of the last \
-         sample reached, and a warning says so once. A NaN or infinite input leaves that row out of the update \
-         (prediction only for it), is counted in <code>skipped_measurements</code> and reported once per input. \
-         A filter failure returns fmi2Discard with the time and the reason; <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> \
-         gives the time of the last good estimate.</p>\n\
+         <h2>Time: which measurement, which estimate</h2>\n{TIMING}\n\
          <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
-         fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect at the next step. \
+         fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
          The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free and restores exactly in a new instance.</p>\n",
         name = esc(d.model_name),
         description = esc(d.description),

@@ -4,25 +4,30 @@
 //! ```text
 //! "KALFMUS\0"  format version (u32)  GUID (u32 length + UTF-8)
 //! state (u8)  time, start time (f64)  stop time present (u8) + f64
-//! samples (u64)  last successful time (f64)  off-grid reported (u8)
-//! values (u32 count + f64 each)  missing reported (u32 count + u8 each)
-//! filter present (u8) [ kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
+//! last successful time (f64)  off-grid reported (u8)  inputs set at this point (u8)
+//! values (u32 count + f64 each)
+//! per input channel (u32 count, then each): ever set (u8)  missing reported (u8)
+//! estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
+//!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
 //! ```
 //!
-//! All numbers little-endian. The filter is rebuilt from the parameter values
-//! and its belief then restored from the snapshot.
+//! All numbers little-endian. The filter and its twin for reads are rebuilt
+//! from the parameter values and the belief restored from the snapshot; the
+//! outputs are computed afresh at the next read, from exactly that.
 
 use estimator::{FilterKind, Snapshot};
 
 use crate::instance::Instance;
 use crate::state::ModelState;
+use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
-/// Serialises the instance's state.
+/// Serialises the instance's state. Reads nothing it would change: saving
+/// leaves every later output as it would have been.
 pub fn save(instance: &Instance) -> Vec<u8> {
-    let mut w = Writer(Vec::with_capacity(64 + 8 * instance.values.len()));
+    let mut w = Writer(Vec::with_capacity(128 + 8 * instance.values.len()));
     w.0.extend_from_slice(MAGIC);
     w.u32(VERSION);
     w.bytes(instance.descriptor.guid().as_bytes());
@@ -31,23 +36,28 @@ pub fn save(instance: &Instance) -> Vec<u8> {
     w.f64(instance.start_time);
     w.u8(u8::from(instance.stop_time.is_some()));
     w.f64(instance.stop_time.unwrap_or(0.0));
-    w.u64(instance.samples);
     w.f64(instance.last_successful_time);
     w.u8(u8::from(instance.off_grid_reported));
+    w.u8(u8::from(instance.inputs_set));
     w.f64s(&instance.values);
-    w.u32(instance.missing_reported.len() as u32);
-    for &r in &instance.missing_reported {
-        w.u8(u8::from(r));
+    w.u32(instance.input_ever_set.len() as u32);
+    for (&set, &reported) in instance.input_ever_set.iter().zip(&instance.missing_reported) {
+        w.u8(u8::from(set));
+        w.u8(u8::from(reported));
     }
-    match instance.filter.as_ref().map(|f| f.snapshot()) {
+    match instance.estimation.as_ref().map(Estimation::progress) {
         None => w.u8(0),
-        Some(s) => {
+        Some(p) => {
             w.u8(1);
-            w.u8(kind_tag(s.kind));
-            w.f64(s.time);
-            w.f64s(&s.input);
-            w.f64s(&s.mean);
-            w.f64s(&s.covariance);
+            w.u64(p.samples);
+            w.u8(u8::from(p.measured));
+            w.u64(p.skipped);
+            w.f64(p.nis);
+            w.u8(kind_tag(p.belief.kind));
+            w.f64(p.belief.time);
+            w.f64s(&p.belief.input);
+            w.f64s(&p.belief.mean);
+            w.f64s(&p.belief.covariance);
         }
     }
     w.0
@@ -59,12 +69,13 @@ pub struct Saved {
     time: f64,
     start_time: f64,
     stop_time: Option<f64>,
-    samples: u64,
     last_successful_time: f64,
     off_grid_reported: bool,
+    inputs_set: bool,
     values: Vec<f64>,
+    input_ever_set: Vec<bool>,
     missing_reported: Vec<bool>,
-    filter: Option<Snapshot>,
+    progress: Option<Progress>,
 }
 
 /// Parses and checks a saved state for an instance of `guid` with
@@ -90,29 +101,35 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Save
     }
     let (time, start_time) = (r.f64()?, r.f64()?);
     let (has_stop, stop) = (r.u8()?, r.f64()?);
-    let (samples, last_successful_time, off_grid_reported) = (r.u64()?, r.f64()?, r.u8()? != 0);
+    let (last_successful_time, off_grid_reported, inputs_set) = (r.f64()?, r.u8()? != 0, r.u8()? != 0);
     let values = r.f64s()?;
     if values.len() != n_values {
         return Err(format!("FMU state has {} values, the FMU has {n_values} variables", values.len()));
     }
-    let n_missing = r.u32()? as usize;
-    if n_missing != m {
-        return Err(format!("FMU state has {n_missing} input channels, the FMU has {m}"));
+    let n_inputs = r.u32()? as usize;
+    if n_inputs != m {
+        return Err(format!("FMU state has {n_inputs} input channels, the FMU has {m}"));
     }
-    let missing_reported = (0..n_missing).map(|_| r.u8().map(|b| b != 0)).collect::<Result<_, _>>()?;
-    let filter = match r.u8()? {
+    let (mut input_ever_set, mut missing_reported) = (Vec::with_capacity(m), Vec::with_capacity(m));
+    for _ in 0..m {
+        input_ever_set.push(r.u8()? != 0);
+        missing_reported.push(r.u8()? != 0);
+    }
+    let progress = match r.u8()? {
         0 => None,
         _ => {
+            let (samples, measured, skipped, nis) = (r.u64()?, r.u8()? != 0, r.u64()?, r.f64()?);
             let kind = kind_of(r.u8()?)?;
             let time = r.f64()?;
             let (input, mean, covariance) = (r.f64s()?, r.f64s()?, r.f64s()?);
-            Some(Snapshot { kind, time, input, mean, covariance })
+            let belief = Snapshot { kind, time, input, mean, covariance };
+            Some(Progress { samples, measured, skipped, nis, belief })
         }
     };
     if r.at != bytes.len() {
         return Err(format!("{} trailing bytes after the FMU state", bytes.len() - r.at));
     }
-    if filter.is_none() && matches!(state, ModelState::StepComplete | ModelState::StepFailed) {
+    if progress.is_none() && matches!(state, ModelState::StepComplete | ModelState::StepFailed) {
         return Err(format!("FMU state in {} without a filter", state.name()));
     }
     Ok(Saved {
@@ -120,36 +137,38 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Save
         time,
         start_time,
         stop_time: (has_stop != 0).then_some(stop),
-        samples,
         last_successful_time,
         off_grid_reported,
+        inputs_set,
         values,
+        input_ever_set,
         missing_reported,
-        filter,
+        progress,
     })
 }
 
-/// Applies a parsed state: the filter is rebuilt from the saved parameters
-/// and its belief restored. On error the instance is unchanged.
+/// Applies a parsed state: the filters are rebuilt from the saved parameters
+/// and the belief restored. On error the instance is unchanged.
 pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
-    let mut filter = match &saved.filter {
+    let estimation = match &saved.progress {
         None => None,
-        Some(snapshot) => {
-            let mut f = crate::instance::build_filter(&instance.descriptor, &saved.values, saved.start_time)?;
-            f.restore(snapshot).map_err(|e| format!("cannot restore the filter: {e}"))?;
-            Some(f)
+        Some(progress) => {
+            let fresh = crate::instance::build_estimation(&instance.descriptor, &saved.values, saved.start_time)?;
+            Some(fresh.resume(progress).map_err(|e| format!("cannot restore the filter: {e}"))?)
         }
     };
     instance.state = saved.state;
     instance.time = saved.time;
     instance.start_time = saved.start_time;
     instance.stop_time = saved.stop_time;
-    instance.samples = saved.samples;
     instance.last_successful_time = saved.last_successful_time;
     instance.off_grid_reported = saved.off_grid_reported;
+    instance.inputs_set = saved.inputs_set;
     instance.values = saved.values;
+    instance.input_ever_set = saved.input_ever_set;
     instance.missing_reported = saved.missing_reported;
-    instance.filter = filter.take();
+    instance.estimation = estimation;
+    instance.mark_outputs_stale();
     Ok(())
 }
 

@@ -4,8 +4,13 @@
 //!
 //! * `outputs_equal_the_library_run_in_process`: 1000 samples of synthetic
 //!   accelerations (a seeded sum of sines, a few samples missing) through the
-//!   FMU; every output equals the same SRCKF built here from the estimator
-//!   crate directly (bit for bit, or to 1e-12 relative).
+//!   FMU as a master drives it (set the inputs of t, read, step, read); the
+//!   read after the inputs equals the same SRCKF built here from the
+//!   estimator crate after its update at t, the read after the step its
+//!   prediction to t + dt, bit for bit.
+//! * `communication_steps_of_1_and_10_ms_follow_the_timing_rules`: at a 5 ms
+//!   sample time, every read of a 1 ms and a 10 ms master equals the
+//!   library's filter run by the rules of `fmu/src/timing.rs`, bit for bit.
 //! * `fmu_state_get_set_serialize_through_the_importer`: saved, restored and
 //!   serialised states replay the same outputs, in the same instance and in a
 //!   fresh one.
@@ -128,6 +133,12 @@ impl Setup {
     /// the S1 chain, RK4, `F̈` white with the given intensity discretised
     /// exactly over the sample time, a diagonal prior.
     fn reference_filter(&self) -> Box<dyn StateEstimator> {
+        self.reference_filter_over(self.get("sample_time"))
+    }
+
+    /// The same filter with the process noise of a prediction over `dt`: the
+    /// per-sample position and velocity variances scaled by `dt / sample_time`.
+    fn reference_filter_over(&self, dt: f64) -> Box<dyn StateEstimator> {
         let p = |n: &str| self.get(n);
         let chain = Oscillator2Dof {
             m1: p("m1"),
@@ -138,11 +149,12 @@ impl Setup {
             c2: p("c2"),
         };
         let model = Discretized::rk4(Oscillator2DofLoad::new(chain), self.substeps as usize);
-        let (dt, q) = (p("sample_time"), p("load_noise_intensity"));
+        let q = p("load_noise_intensity");
+        let fraction = dt / p("sample_time");
         let mut qm = DMatrix::zeros(6, 6);
         for i in [0, 1] {
-            qm[(i, i)] = p("q_z_std").powi(2);
-            qm[(i + 3, i + 3)] = p("q_z_dot_std").powi(2);
+            qm[(i, i)] = p("q_z_std") * p("q_z_std") * fraction;
+            qm[(i + 3, i + 3)] = p("q_z_dot_std") * p("q_z_dot_std") * fraction;
         }
         qm[(2, 2)] = q * dt.powi(3) / 3.0;
         qm[(2, 5)] = q * dt.powi(2) / 2.0;
@@ -236,31 +248,44 @@ impl Fmu {
         Common::exit_initialization_mode(&mut self.instance).expect("fmi2ExitInitializationMode");
     }
 
-    /// One communication step of one sample with these inputs; the outputs after it.
-    fn step(&mut self, k: usize, dt: f64, z: [f64; 2]) -> Vec<f64> {
+    /// Sets the inputs at the current communication point.
+    fn set_inputs(&mut self, z: [f64; 2]) {
         Common::set_real(&mut self.instance, &self.inputs, &z).expect("fmi2SetReal of the inputs");
-        self.instance.do_step(k as f64 * dt, dt, true).unwrap_or_else(|e| panic!("fmi2DoStep {k}: {e}"));
+    }
+
+    /// The outputs compared (`ESTIMATES`, then `nis`).
+    fn read(&mut self) -> Vec<f64> {
         let mut out = vec![0.0; self.outputs.len()];
         Common::get_real(&mut self.instance, &self.outputs, &mut out).expect("fmi2GetReal");
         out
     }
+
+    fn do_step(&mut self, t: f64, h: f64) {
+        self.instance.do_step(t, h, true).unwrap_or_else(|e| panic!("fmi2DoStep({t}, {h}): {e}"));
+    }
+
+    /// A master's sample `k`: the inputs of `t_k`, `fmi2DoStep(t_k, dt)`; the outputs after it.
+    fn step(&mut self, k: usize, dt: f64, z: [f64; 2]) -> Vec<f64> {
+        self.set_inputs(z);
+        self.do_step(k as f64 * dt, dt);
+        self.read()
+    }
 }
 
-/// `a == b` bit for bit, or to 1e-12 relative; true if bit for bit.
-fn assert_close(a: f64, b: f64, what: &str) -> bool {
-    if a.to_bits() == b.to_bits() {
-        return true;
-    }
-    let scale = a.abs().max(b.abs()).max(1e-300);
-    assert!((a - b).abs() <= 1e-12 * scale, "{what}: FMU {a:e} vs library {b:e}");
-    false
+/// What the FMU's outputs should be for a filter's belief: `ESTIMATES`, then the NIS.
+fn expected_outputs(belief: &dyn StateEstimator, nis: f64) -> Vec<f64> {
+    ESTIMATES
+        .iter()
+        .map(|(_, i, std)| if *std { belief.variance(*i).max(0.0).sqrt() } else { belief.mean()[*i] })
+        .chain([nis])
+        .collect()
 }
 
 #[test]
 fn outputs_equal_the_library_run_in_process() {
     let setup = Setup::s1();
     let dt = setup.get("sample_time");
-    let z = accelerations(SAMPLES, dt, 20240611);
+    let z = accelerations(SAMPLES + 1, dt, 20240611);
     let import: Fmi2Import = fmi::import::from_path(fmu_path()).expect("importing the .fmu");
     let md = import.model_description();
     assert_eq!(md.fmi_version, "2.0");
@@ -271,20 +296,22 @@ fn outputs_equal_the_library_run_in_process() {
     fmu.initialise(&setup, SAMPLES as f64 * dt);
 
     let mut reference = setup.reference_filter();
-    let (mut exact, mut total) = (0, 0);
     for (k, zk) in z.iter().enumerate() {
-        let out = fmu.step(k, dt, *zk);
-        reference.predict(&[], dt).unwrap();
-        reference.update(zk).unwrap();
-        for (j, (name, i, std)) in ESTIMATES.iter().enumerate() {
-            let expected = if *std { reference.variance(*i).max(0.0).sqrt() } else { reference.mean()[*i] };
-            exact += usize::from(assert_close(out[j], expected, &format!("{name} at sample {}", k + 1)));
+        let t = k as f64 * dt;
+        if k > 0 {
+            // The read right after the step to t: the prediction from the measurements before t.
+            reference.predict(&[], dt).unwrap();
+            let after_step = fmu.read();
+            let expected = expected_outputs(reference.as_ref(), reference.innovation().nis());
+            assert_eq!(bits(&[after_step]), bits(&[expected]), "after the step to sample {k}");
         }
-        let nis = reference.innovation().nis();
-        exact += usize::from(assert_close(out[ESTIMATES.len()], nis, &format!("nis at sample {}", k + 1)));
-        total += out.len();
+        fmu.set_inputs(*zk);
+        let nis = reference.update(zk).unwrap().nis();
+        assert_eq!(bits(&[fmu.read()]), bits(&[expected_outputs(reference.as_ref(), nis)]), "at sample {k}");
+        if k < SAMPLES {
+            fmu.do_step(t, dt);
+        }
     }
-    println!("{exact} of {total} outputs equal bit for bit, the rest to 1e-12");
 
     let missing = z.iter().filter(|zk| zk.iter().any(|v| v.is_nan())).count();
     let (skipped, healthy) = (fmu.vr["skipped_measurements"], fmu.vr["filter_healthy"]);
@@ -299,6 +326,69 @@ fn outputs_equal_the_library_run_in_process() {
     // A step past the stop time is refused (and the instance still answers).
     assert!(fmu.instance.do_step(SAMPLES as f64 * dt, dt, true).is_err(), "a step past the stop time");
     Common::terminate(&mut fmu.instance).expect("fmi2Terminate");
+}
+
+/// A master stepping by `h` at the 5 ms sample time over `duration`, setting
+/// the plant's outputs (`signal`) at every communication point and reading
+/// before and after each step; every read must equal the library filter run
+/// by the rules of `fmu/src/timing.rs`:
+/// * at a sample instant that is a communication point, the update with the
+///   inputs there (read after them) — once;
+/// * samples inside a step: prediction only;
+/// * a read off the grid: the prediction from the last sample to that time,
+///   with the process noise of that interval.
+fn check_master(h: f64, duration: f64) {
+    let setup = Setup::s1();
+    let ts = setup.get("sample_time");
+    let signal = |t: f64| -> [f64; 2] { [(7.0 * t).sin() + 0.1 * (53.0 * t).cos(), 0.5 * (11.0 * t).sin()] };
+    let import: Fmi2Import = fmi::import::from_path(fmu_path()).expect("importing the .fmu");
+    let mut fmu = Fmu::new(&import, &format!("master-{h}"));
+    fmu.initialise(&setup, duration);
+    let mut reference = setup.reference_filter();
+    let steps = (duration / h).round() as usize;
+    let mut k = 0; // the reference's sample
+    let on_grid = |t: f64| ((t / ts).round() * ts - t).abs() < 1e-9;
+    let expected_at = |reference: &dyn StateEstimator, t: f64, k: usize| -> Vec<f64> {
+        let dt = t - k as f64 * ts;
+        if dt.abs() < 1e-9 {
+            return expected_outputs(reference, reference.innovation().nis());
+        }
+        let mut ahead = setup.reference_filter_over(dt);
+        ahead.restore(&reference.snapshot()).unwrap();
+        ahead.predict(&[], dt).unwrap();
+        expected_outputs(ahead.as_ref(), reference.innovation().nis())
+    };
+    // The master's clock, as masters keep it and the FMU follows it: t += h.
+    let mut t = 0.0;
+    for j in 0..=steps {
+        let z = signal(t);
+        fmu.set_inputs(z);
+        if on_grid(t) {
+            reference.update(&z).unwrap();
+        }
+        assert_eq!(bits(&[fmu.read()]), bits(&[expected_at(reference.as_ref(), t, k)]), "h {h}: read at t = {t}");
+        if j == steps {
+            break;
+        }
+        fmu.do_step(t, h);
+        while ((k + 1) as f64 * ts) <= (t + h) + 1e-9 {
+            reference.predict(&[], ts).unwrap();
+            k += 1;
+        }
+        t += h;
+        assert_eq!(
+            bits(&[fmu.read()]),
+            bits(&[expected_at(reference.as_ref(), t, k)]),
+            "h {h}: read after the step to t = {t}"
+        );
+    }
+    Common::terminate(&mut fmu.instance).expect("fmi2Terminate");
+}
+
+#[test]
+fn communication_steps_of_1_and_10_ms_follow_the_timing_rules() {
+    check_master(0.001, 0.5);
+    check_master(0.010, 0.5);
 }
 
 #[test]

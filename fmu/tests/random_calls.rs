@@ -1294,6 +1294,134 @@ fn running_instance(name: &CString, callbacks: &Fmi2CallbackFunctions) -> Fmi2Co
     }
 }
 
+/// One call of a legal run, for [`capturing_the_fmu_state_changes_no_output`].
+#[derive(Debug, Clone)]
+enum Call {
+    SetInputs([f64; 2]),
+    SetTunable(u32, f64),
+    Read,
+    DoStep(f64),
+    /// fmi2GetFMUstate, then maybe size and serialise, then maybe free: left
+    /// out of the twin run.
+    Capture {
+        serialize: bool,
+        free: bool,
+    },
+}
+
+/// A random legal run of one instance of filter kind `kind` (1 … 5): inputs
+/// (some NaN), reads, steps of 1, 5, 7.5 and 10 ms at the 5 ms sample time,
+/// tunable changes, and state captures between any two of them.
+fn legal_run(seed: u64) -> Vec<Call> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut calls = Vec::new();
+    for _ in 0..rng.random_range(40..160) {
+        let call = match rng.random_range(0..20) {
+            0..=5 => {
+                let z = [rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0)];
+                Call::SetInputs(if rng.random_bool(0.05) { [f64::NAN, z[1]] } else { z })
+            }
+            6..=9 => Call::Read,
+            10..=15 => Call::DoStep([0.001, 0.005, 0.005, 0.0075, 0.010][rng.random_range(0..5)]),
+            16 => Call::SetTunable(vr("r_z2_ddot_std"), rng.random_range(0.005..0.05)),
+            _ => Call::Capture { serialize: rng.random_bool(0.5), free: rng.random_bool(0.7) },
+        };
+        calls.push(call);
+    }
+    calls
+}
+
+/// Runs `calls` on a new instance of filter `kind`, skipping the captures
+/// unless `capture`; returns every output read, as bits.
+fn outputs_of(calls: &[Call], kind: i32, capture: bool, callbacks: &Fmi2CallbackFunctions) -> Vec<u64> {
+    let name = CString::new(format!("capture-{kind}-{capture}")).expect("no NUL");
+    let outputs: Vec<u32> =
+        (0..variables().len() as u32).filter(|&r| is_output(r) && real_kind(variables()[r as usize].kind)).collect();
+    let (mut seen, mut held) = (Vec::new(), Vec::new());
+    let mut time = 0.0;
+    // SAFETY: valid strings, callbacks, pointers and lengths throughout; the
+    // states are this instance's and freed once.
+    unsafe {
+        let c = fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, guid().as_ptr(), ptr::null(), callbacks, 0, 0);
+        assert!(!c.is_null());
+        assert_eq!(fmu::fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), Fmi2Status::Ok);
+        assert_eq!(fmu::fmi2EnterInitializationMode(c), Fmi2Status::Ok);
+        assert_eq!(fmu::fmi2SetInteger(c, &vr("filter"), 1, &kind), Fmi2Status::Ok);
+        assert_eq!(fmu::fmi2ExitInitializationMode(c), Fmi2Status::Ok);
+        for call in calls {
+            match *call {
+                Call::SetInputs(z) => {
+                    let vrs = [vr("z1_ddot"), vr("z2_ddot")];
+                    assert_eq!(fmu::fmi2SetReal(c, vrs.as_ptr(), 2, z.as_ptr()), Fmi2Status::Ok);
+                }
+                Call::SetTunable(r, x) => assert_eq!(fmu::fmi2SetReal(c, &r, 1, &x), Fmi2Status::Ok),
+                Call::Read => {
+                    let mut out = vec![0.0; outputs.len()];
+                    assert_eq!(fmu::fmi2GetReal(c, outputs.as_ptr(), outputs.len(), out.as_mut_ptr()), Fmi2Status::Ok);
+                    let mut skipped = 0;
+                    assert_eq!(fmu::fmi2GetInteger(c, &vr("skipped_measurements"), 1, &mut skipped), Fmi2Status::Ok);
+                    seen.extend(out.iter().map(|x| x.to_bits()).chain([skipped as u64]));
+                }
+                Call::DoStep(h) => {
+                    assert_eq!(fmu::fmi2DoStep(c, time, h, 1), Fmi2Status::Ok);
+                    time += h;
+                }
+                Call::Capture { serialize, free } => {
+                    if !capture {
+                        continue;
+                    }
+                    let mut state: Fmi2FmuState = ptr::null_mut();
+                    assert_eq!(fmu::fmi2GetFMUstate(c, &mut state), Fmi2Status::Ok);
+                    if serialize {
+                        let mut size = 0;
+                        assert_eq!(fmu::fmi2SerializedFMUstateSize(c, state, &mut size), Fmi2Status::Ok);
+                        let mut bytes = vec![0u8; size];
+                        assert_eq!(
+                            fmu::fmi2SerializeFMUstate(c, state, bytes.as_mut_ptr().cast(), size),
+                            Fmi2Status::Ok
+                        );
+                    }
+                    if free {
+                        assert_eq!(fmu::fmi2FreeFMUstate(c, &mut state), Fmi2Status::Ok);
+                    } else {
+                        held.push(state);
+                    }
+                }
+            }
+        }
+        for mut state in held {
+            assert_eq!(fmu::fmi2FreeFMUstate(c, &mut state), Fmi2Status::Ok);
+        }
+        fmu::fmi2FreeInstance(c);
+    }
+    seen
+}
+
+/// Capturing or serialising the FMU state changes nothing: for every filter
+/// kind, a random legal run gives bit for bit the outputs of the same run
+/// with the fmi2GetFMUstate / fmi2SerializedFMUstateSize /
+/// fmi2SerializeFMUstate / fmi2FreeFMUstate calls left out.
+#[test]
+fn capturing_the_fmu_state_changes_no_output() {
+    let callbacks = callbacks();
+    for seed in 0..60 {
+        let calls = legal_run(seed);
+        for kind in 1..=5 {
+            let with = outputs_of(&calls, kind, true, &callbacks);
+            let without = outputs_of(&calls, kind, false, &callbacks);
+            assert!(!with.is_empty() || !calls.iter().any(|c| matches!(c, Call::Read)));
+            if let Some(i) = with.iter().zip(&without).position(|(a, b)| a != b) {
+                panic!(
+                    "seed {seed}, filter {kind}: output {i} is {:e} with the captures, {:e} without",
+                    f64::from_bits(with[i]),
+                    f64::from_bits(without[i])
+                );
+            }
+            assert_eq!(with.len(), without.len());
+        }
+    }
+}
+
 /// Refused calls in StepComplete change nothing: the instance steps on exactly
 /// like an undisturbed twin.
 #[test]

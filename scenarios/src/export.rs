@@ -14,6 +14,7 @@
 //! # z1_ddot_noise_std = 0.0123…
 //! # z2_ddot_noise_std = 0.0456…
 //! time,z1_ddot,z2_ddot,F_true
+//! 0,…,…,…
 //! 0.005,…,…,…
 //! ```
 //!
@@ -21,12 +22,11 @@
 //!   are the standard deviations of the white noise added to each channel
 //!   (m/s²): the sensor specification, to be set as `r_z1_ddot_std` and
 //!   `r_z2_ddot_std` of the FMU.
-//! * Then one header line and one row per sample `k = 1 … n` at
+//! * Then one header line and one row per sample `k = 0 … n` at
 //!   `time = k·dt`: the measured accelerations `z1_ddot`, `z2_ddot` (m/s²) at
-//!   that time, and the true load `F_true` (N) there. The estimator's update
-//!   at `tₖ` is meant to use row `k`; an importer that applies inputs at the
-//!   start of each communication step (fmpy) must therefore be given the
-//!   table shifted one sample earlier.
+//!   that time, and the true load `F_true` (N) there. They are the plant's
+//!   outputs of that time: a master sets row `k` at communication point `tₖ`,
+//!   as fmpy does with an input table, and the FMU measures them at `tₖ`.
 //! * Numbers are written in Rust's shortest round-trip form: parsing them
 //!   back gives the same `f64`s.
 
@@ -120,7 +120,7 @@ mod tests {
             .skip(1)
             .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
             .collect();
-        assert_eq!(rows.len(), 20);
+        assert_eq!(rows.len(), 21, "t = 0, 0.005, …, 0.1");
         for (k, row) in rows.iter().enumerate() {
             let z = measurements.acceleration[k];
             assert_eq!(row, &vec![truth.time[k], z[0], z[1], truth.load[k]]);

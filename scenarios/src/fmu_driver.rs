@@ -1,7 +1,8 @@
 //! Drives a packaged FMU through the `fmi` crate's importer, as an external
 //! co-simulation master would: instantiate, set parameters by name,
-//! initialise, then per communication step set the inputs, `fmi2DoStep`, and
-//! read the outputs. Nothing here knows the estimator inside.
+//! initialise, then at each communication point `t` set the inputs (the
+//! plant's outputs of `t`), read the outputs, `fmi2DoStep(t, h)`, read again.
+//! Nothing here knows the estimator inside.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -83,24 +84,32 @@ pub struct Instance {
 }
 
 impl Instance {
-    /// Sets the inputs, steps by `h`, and reads `outputs` into `values`.
-    pub fn step(
-        &mut self,
-        inputs: &[u32],
-        values_in: &[f64],
-        h: f64,
-        outputs: &[u32],
-        values: &mut [f64],
-    ) -> anyhow::Result<()> {
-        Common::set_real(&mut self.cs, inputs, values_in)
-            .map_err(|e| anyhow!("fmi2SetReal at t = {}: {e}", self.time))?;
-        self.cs.do_step(self.time, h, true).map_err(|e| anyhow!("fmi2DoStep at t = {}: {e}", self.time))?;
-        self.time += h;
+    /// The communication point the instance is at.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Sets the inputs at the current communication point.
+    pub fn set_inputs(&mut self, inputs: &[u32], values: &[f64]) -> anyhow::Result<()> {
+        Common::set_real(&mut self.cs, inputs, values)
+            .map(|_| ())
+            .map_err(|e| anyhow!("fmi2SetReal at t = {}: {e}", self.time))
+    }
+
+    /// Reads `outputs` into `values`; every one must be finite.
+    pub fn read(&mut self, outputs: &[u32], values: &mut [f64]) -> anyhow::Result<()> {
         Common::get_real(&mut self.cs, outputs, values)
             .map_err(|e| anyhow!("fmi2GetReal at t = {}: {e}", self.time))?;
         if values.iter().any(|v| !v.is_finite()) {
             bail!("the FMU returned a non-finite output at t = {}", self.time);
         }
+        Ok(())
+    }
+
+    /// `fmi2DoStep(t, h)` from the current communication point.
+    pub fn do_step(&mut self, h: f64) -> anyhow::Result<()> {
+        self.cs.do_step(self.time, h, true).map_err(|e| anyhow!("fmi2DoStep at t = {}: {e}", self.time))?;
+        self.time += h;
         Ok(())
     }
 

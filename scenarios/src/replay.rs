@@ -13,11 +13,16 @@
 //! x0, p0        the prior mean (list) and covariance (diagonal list or list of rows)
 //! dt            the sample period (s)
 //! measurements  one row of m values per sample; null marks a missing value
+//! first_at_prior  true: the first row is measured at the prior's time (default false)
 //! repeat        run the whole sequence this many times, for timing (default 1)
 //! ```
 //!
-//! Each sample is one `predict(&[], dt)` then one `update(row)`. The output
-//! holds, per sample, the mean and the covariance after the update (row-major
+//! Each sample is one `predict(&[], dt)` then one `update(row)`; with
+//! `first_at_prior` the first row is an update only, at the prior's time, as
+//! an estimator FMU takes the inputs set at its start time. The output
+//! holds, per sample, the mean and the standard deviations before the update
+//! (`predicted_means`, `predicted_std`: what an estimator FMU outputs right
+//! after the step to that sample), the mean and the covariance after the update (row-major
 //! `n × n`), the NIS, the log-likelihood and the number of rows used, and
 //! `step_ns`: the mean wall-clock time of one predict + update (+ storing the
 //! estimate in preallocated buffers) over all repetitions. With `repeat > 1`
@@ -106,6 +111,9 @@ pub struct Spec {
     pub dt: f64,
     /// Measurement rows; `null` is a missing value.
     pub measurements: Vec<Vec<Option<f64>>>,
+    /// The first row is the measurement at the prior's time (no predict before it).
+    #[serde(default)]
+    pub first_at_prior: bool,
     /// How many times to run the sequence.
     #[serde(default = "one")]
     pub repeat: usize,
@@ -196,6 +204,8 @@ pub struct Replay {
     pub measurements: Vec<f64>,
     /// Number of samples.
     pub steps: usize,
+    /// The first row is measured at the prior's time.
+    pub first_at_prior: bool,
     /// Repetitions of the whole sequence.
     pub repeat: usize,
 }
@@ -215,6 +225,10 @@ pub struct Output {
     pub steps: usize,
     /// Repetitions run.
     pub repeat: usize,
+    /// Mean before each update (after its predict; the prior for a first row at the prior's time).
+    pub predicted_means: Vec<Vec<f64>>,
+    /// Standard deviations before each update (square roots of the diagonal of `P`).
+    pub predicted_std: Vec<Vec<f64>>,
     /// Mean after each update.
     pub means: Vec<Vec<f64>>,
     /// Covariance after each update (rows of `P`).
@@ -283,6 +297,7 @@ impl Replay {
             dt: spec.dt,
             measurements,
             steps,
+            first_at_prior: spec.first_at_prior,
             repeat: spec.repeat,
         })
     }
@@ -315,6 +330,8 @@ impl Replay {
         let mut filter = self.build()?;
         let (n, m, steps) = (filter.state_dim(), filter.measurement_dim(), self.steps);
         let mut means = vec![0.0; steps * n];
+        let mut predicted_means = vec![0.0; steps * n];
+        let mut predicted_std = vec![0.0; steps * n];
         let mut covariances = vec![0.0; steps * n * n];
         let mut nis = vec![0.0; steps];
         let mut log_likelihood = vec![0.0; steps];
@@ -326,8 +343,15 @@ impl Replay {
             let start = Instant::now();
             for k in 0..steps {
                 let z = &self.measurements[k * m..(k + 1) * m];
-                if let Err(err) = filter.predict(&[], self.dt) {
-                    return Err(step_error(k, filter.time() + self.dt, "predict", err));
+                let update_only = k == 0 && self.first_at_prior;
+                if !update_only {
+                    if let Err(err) = filter.predict(&[], self.dt) {
+                        return Err(step_error(k, filter.time() + self.dt, "predict", err));
+                    }
+                }
+                predicted_means[k * n..(k + 1) * n].copy_from_slice(filter.mean().as_slice());
+                for (i, s) in predicted_std[k * n..(k + 1) * n].iter_mut().enumerate() {
+                    *s = filter.variance(i).max(0.0).sqrt();
                 }
                 let innovation = match filter.update(z) {
                     Ok(innovation) => innovation,
@@ -350,6 +374,8 @@ impl Replay {
             m,
             steps,
             repeat: self.repeat,
+            predicted_means: predicted_means.chunks_exact(n).map(<[f64]>::to_vec).collect(),
+            predicted_std: predicted_std.chunks_exact(n).map(<[f64]>::to_vec).collect(),
             means: means.chunks_exact(n).map(<[f64]>::to_vec).collect(),
             // Stored column-major; written as rows of P.
             covariances: covariances

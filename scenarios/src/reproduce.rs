@@ -8,8 +8,9 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use analyzer::log::PREDICTION;
 use analyzer::read::read_log;
-use analyzer::report::{analyse, Options};
+use analyzer::report::{analyse, Options, PairReport, Report};
 use analyzer::rrd::write_rrd;
 use anyhow::{bail, Context};
 use estimator::FilterKind;
@@ -112,6 +113,11 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
         settings.rmse_window
     );
+    println!(
+        "two readings of the FMU's outputs, as a master has them: at t after the inputs of t were set (feedthrough, \
+         the first columns) and right after fmi2DoStep(t, dt), the estimate at t + dt predicted from the measurements \
+         up to t ('after step'); each compared with the truth at its own time stamp"
+    );
     let runs = (Case::ALL.len() * FilterKind::ALL.len()) as u64;
     let ticks_per_run = (settings.samples() / 1000) as u64;
     let bar = ProgressBar::new(runs * ticks_per_run.max(1));
@@ -119,7 +125,7 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
     let mut table = String::new();
     let _ = writeln!(
         table,
-        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}",
+        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}",
         "case",
         "filter",
         "corr",
@@ -130,7 +136,9 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         "run.max cv",
         "paper",
         "t_conv",
-        "PSD ±3dB Hz"
+        "PSD ±3dB Hz",
+        "after step",
+        "RMSE conv"
     );
     let mut failures = 0;
     for case in Case::ALL {
@@ -151,17 +159,20 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
                 let report = analyse(&run, &options)?;
                 report.write_json(&stem.with_extension("json"))?;
                 write_rrd(&report, &run, &stem.with_extension("rrd"))?;
-                Ok(report)
+                let after_step = analyse(&run, &Options { estimate_topic: PREDICTION.into(), ..options })?;
+                Ok((report, after_step))
             });
             let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
             match result {
-                Ok(report) => {
-                    let pair = report.pairs.iter().find(|p| p.truth == "F").context("the report has no load pair")?;
-                    let c = &pair.comparison;
+                Ok((report, after_step)) => {
+                    let (Some(pair), Some(after)) = (load_pair(&report), load_pair(&after_step)) else {
+                        bail!("the report of {} has no load pair", log.display());
+                    };
+                    let (c, a) = (&pair.comparison, &after.comparison);
                     let band = pair.psd_agreement_band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
                     let _ = writeln!(
                         table,
-                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}",
+                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}",
                         case.to_string(),
                         kind.name(),
                         c.correlation,
@@ -172,7 +183,9 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
                         c.running_rmse_max_converged,
                         paper(published.running_rmse_max_converged),
                         c.convergence_time,
-                        band
+                        band,
+                        a.correlation,
+                        a.rmse_converged
                     );
                 }
                 Err(e) => {
@@ -186,4 +199,9 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
     print!("{table}");
     println!("paper: SRCKF figures of Gong et al. 2024 (correlation; running-RMSE peak; bound after the start), N");
     Ok(failures)
+}
+
+/// The report's pair of the load `F`.
+fn load_pair(report: &Report) -> Option<&PairReport> {
+    report.pairs.iter().find(|p| p.truth == "F")
 }

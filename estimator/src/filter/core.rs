@@ -96,19 +96,23 @@ impl<M: Model> Core<M> {
 }
 
 impl<M: Model> Core<M> {
-    /// The snapshot with `covariance` the filter's own representation.
-    pub fn snapshot(
+    /// Writes the snapshot, with `covariance` the filter's own representation,
+    /// into `out`'s buffers.
+    pub fn snapshot_into(
         &self,
         kind: crate::filter::FilterKind,
         covariance: &nalgebra::DMatrix<f64>,
-    ) -> crate::filter::Snapshot {
-        crate::filter::Snapshot {
-            kind,
-            time: self.t,
-            input: self.u.as_slice().to_vec(),
-            mean: self.x.as_slice().to_vec(),
-            covariance: covariance.as_slice().to_vec(),
-        }
+        out: &mut crate::filter::Snapshot,
+    ) {
+        let copy = |to: &mut Vec<f64>, from: &[f64]| {
+            to.clear();
+            to.extend_from_slice(from);
+        };
+        out.kind = kind;
+        out.time = self.t;
+        copy(&mut out.input, self.u.as_slice());
+        copy(&mut out.mean, self.x.as_slice());
+        copy(&mut out.covariance, covariance.as_slice());
     }
 
     /// Restores time, input and mean; returns the covariance part for the filter.

@@ -196,8 +196,8 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         self.p[(i, i)]
     }
 
-    fn snapshot(&self) -> crate::filter::Snapshot {
-        self.core.snapshot(FilterKind::Ekf, &self.p)
+    fn snapshot_into(&self, out: &mut crate::filter::Snapshot) {
+        self.core.snapshot_into(FilterKind::Ekf, &self.p, out)
     }
 
     fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {

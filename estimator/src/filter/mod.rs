@@ -77,11 +77,21 @@ pub trait StateEstimator {
     /// Restarts from `prior` at time `t0`, keeping the buffers.
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
 
-    /// The belief as plain numbers, to save and restore (e.g. FMU state).
-    fn snapshot(&self) -> Snapshot;
+    /// Writes the belief into `out` as plain numbers, reusing its buffers: no
+    /// allocation once they have the capacity (copying a belief between two
+    /// filters of one kind every step, as an FMU's reads do).
+    fn snapshot_into(&self, out: &mut Snapshot);
     /// Restores a belief saved by [`StateEstimator::snapshot`] of a filter of the
-    /// same kind and size; continuing from it is bit-identical.
+    /// same kind and size; continuing from it is bit-identical. Allocates nothing.
     fn restore(&mut self, snapshot: &Snapshot) -> Result<(), FilterError>;
+
+    /// The belief as plain numbers, to save and restore (e.g. FMU state).
+    fn snapshot(&self) -> Snapshot {
+        let mut out =
+            Snapshot { kind: self.kind(), time: 0.0, input: Vec::new(), mean: Vec::new(), covariance: Vec::new() };
+        self.snapshot_into(&mut out);
+        out
+    }
 
     /// The covariance `P` as a new matrix.
     fn covariance(&self) -> DMatrix<f64> {

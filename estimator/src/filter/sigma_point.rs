@@ -220,8 +220,8 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
         self.p[(i, i)]
     }
 
-    fn snapshot(&self) -> crate::filter::Snapshot {
-        self.core.snapshot(self.kind, &self.p)
+    fn snapshot_into(&self, out: &mut crate::filter::Snapshot) {
+        self.core.snapshot_into(self.kind, &self.p, out)
     }
 
     fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {

@@ -386,14 +386,14 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         Some(&self.s)
     }
 
-    fn snapshot(&self) -> crate::filter::Snapshot {
-        self.core.snapshot(FilterKind::SrCkf, &self.s)
+    fn snapshot_into(&self, out: &mut crate::filter::Snapshot) {
+        self.core.snapshot_into(FilterKind::SrCkf, &self.s, out)
     }
 
     fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
         let covariance = self.core.restore(FilterKind::SrCkf, snapshot)?;
         self.s.copy_from_slice(covariance);
-        self.s_t.copy_from(&self.s.transpose());
+        self.s.transpose_to(&mut self.s_t);
         Ok(())
     }
 

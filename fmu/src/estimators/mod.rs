@@ -22,8 +22,10 @@ pub struct DefaultExperiment {
 
 /// Builds the filter from the parameter values: `(parameters, kind, unscented, noise)`.
 pub type BuildFilter = fn(&Parameters, FilterKind, UnscentedParams, Noise) -> Result<Box<dyn StateEstimator>, String>;
-/// Builds `Q` and `R` from the (tunable) parameter values.
-pub type BuildNoise = fn(&Parameters) -> Result<Noise, String>;
+/// Builds `Q` for a prediction over `dt` seconds and `R` from the (tunable)
+/// parameter values: `dt` is `sample_time` for the filter, and shorter for the
+/// prediction to a communication point between two samples.
+pub type BuildNoise = fn(&Parameters, f64) -> Result<Noise, String>;
 
 /// Everything that makes one estimator FMU.
 #[derive(Debug)]
@@ -105,6 +107,19 @@ pub static FILTER_KIND: EnumerationType = EnumerationType {
     ],
 };
 
+/// When the inputs set before `fmi2DoStep(t, h)` were measured (`timing.rs`).
+pub static INPUT_TIMING: EnumerationType = EnumerationType {
+    name: "InputTiming",
+    items: &[
+        (
+            1,
+            "communication_point",
+            "at t: the plant's outputs of t set at communication point t (FMI's meaning; outputs have direct feedthrough)",
+        ),
+        (2, "step_end", "at t + h: for masters that step the plant first and hand over its outputs of t + h"),
+    ],
+};
+
 /// The filter kind for an enumeration value.
 pub fn filter_kind(value: f64) -> Result<FilterKind, String> {
     let kinds = [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
@@ -127,6 +142,17 @@ fn common_variables() -> Vec<Variable> {
         },
         Variable::parameter("sample_time", "s", 0.005, "filter sample time: one predict + update per sample")
             .bounded(Some(1e-9), None),
+        Variable {
+            kind: Kind::Enumeration(&INPUT_TIMING),
+            start: Some(1.0),
+            unit: None,
+            ..Variable::parameter(
+                "input_timing",
+                "1",
+                1.0,
+                "which time the inputs set before fmi2DoStep(t, h) are measured at: 1 t (default), 2 t + h (Gauss-Seidel masters)",
+            )
+        },
         Variable::parameter("ukf_alpha", "1", 1e-3, "UKF spread alpha (UKF only)").bounded(Some(1e-9), None),
         Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
         Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),

@@ -153,14 +153,16 @@ fn build(
     build_filter(kind, model, noise, &prior, ukf).map_err(|e| e.to_string())
 }
 
-fn noise(p: &Parameters) -> Result<Noise, String> {
-    let dt = p.positive("sample_time")?;
+/// `Q` over `dt`: the per-sample position and velocity variances scale with
+/// `dt / sample_time` (white noise), the load block is the exact discretisation.
+fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
+    let fraction = dt / p.positive("sample_time")?;
     let (qz, qv, q) =
         (p.non_negative("q_z_std")?, p.non_negative("q_z_dot_std")?, p.non_negative("load_noise_intensity")?);
     let mut m = DMatrix::zeros(6, 6);
     for i in [0, 1] {
-        m[(i, i)] = qz * qz;
-        m[(i + 3, i + 3)] = qv * qv;
+        m[(i, i)] = qz * qz * fraction;
+        m[(i + 3, i + 3)] = qv * qv * fraction;
     }
     m[(2, 2)] = q * dt.powi(3) / 3.0;
     m[(2, 5)] = q * dt.powi(2) / 2.0;

@@ -1,12 +1,16 @@
-//! One S1 case through the packaged estimator FMU: the truth simulator's
-//! noisy accelerations are the FMU's inputs, sample by sample, and the run is
-//! logged in the kalfmu MCAP format (`docs/log-format.md`): the measurements,
-//! the truth and every FMU output.
+//! One S1 case through the packaged estimator FMU, driven as a co-simulation
+//! master drives it: at each sample instant `t` the truth simulator's noisy
+//! accelerations of `t` are set as the FMU's inputs, the outputs are read
+//! (the estimate at `t` given the measurements up to `t`, by direct
+//! feedthrough), `fmi2DoStep(t, dt)` is called, and the outputs are read
+//! again (the estimate at `t + dt` predicted from the measurements up to `t`).
+//! The run is logged in the kalfmu MCAP format (`docs/log-format.md`): the
+//! measurements, the truth, both readings (`/estimate`, `/prediction`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
+use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
 use anyhow::Context;
 use estimator::FilterKind;
 
@@ -93,12 +97,12 @@ pub fn run(
 ) -> anyhow::Result<()> {
     let Simulated { case, settings, truth, measurements } = *sim;
     let dt = settings.dt();
-    let samples = truth.time.len();
+    let instants = truth.time.len();
     let params = parameters(case, settings, measurements);
     let mut instance = fmu.instantiate(
         &format!("s1-{case}-{kind}"),
-        0.0,
-        samples as f64 * dt,
+        truth.time[0],
+        truth.time[instants - 1],
         &params,
         &[("filter", filter_enumeration(kind)), ("rk4_substeps", 1)],
     )?;
@@ -129,18 +133,26 @@ pub fn run(
     let truth_specs: Vec<SignalSpec> =
         truth_names.iter().map(|n| SignalSpec::new(n, &unit(n), "true value (truth simulator)")).collect();
     let ch_t = w.add_channel(TRUTH, &truth_specs)?;
-    let estimate_specs: Vec<SignalSpec> = OUTPUTS.iter().map(|n| SignalSpec::new(n, &unit(n), "FMU output")).collect();
-    let ch_e = w.add_channel(ESTIMATE, &estimate_specs)?;
+    let specs =
+        |what: &str| -> Vec<SignalSpec> { OUTPUTS.iter().map(|n| SignalSpec::new(n, &unit(n), what)).collect() };
+    let ch_e = w.add_channel(ESTIMATE, &specs("FMU output read at t after the inputs of t were set"))?;
+    let ch_p = w.add_channel(PREDICTION, &specs("FMU output read right after fmi2DoStep(t - dt, dt)"))?;
 
     let mut out = vec![0.0; outputs.len()];
-    for k in 0..samples {
-        let z = measurements.acceleration[k];
-        instance.step(&inputs, &z, dt, &outputs, &mut out).with_context(|| format!("{case} {kind}"))?;
-        let t = truth.time[k];
+    for k in 0..instants {
+        let (t, z) = (truth.time[k], measurements.acceleration[k]);
+        let context = || format!("{case} {kind} at t = {t} s");
+        instance.set_inputs(&inputs, &z).with_context(context)?;
+        instance.read(&outputs, &mut out).with_context(context)?;
         let [z1, z2, v1, v2] = truth.motion[k];
         w.write(ch_m, t, &z)?;
         w.write(ch_t, t, &[truth.load[k], z1, z2, v1, v2, truth.load_rate[k]])?;
         w.write(ch_e, t, &out)?;
+        if k + 1 < instants {
+            instance.do_step(dt).with_context(context)?;
+            instance.read(&outputs, &mut out).with_context(context)?;
+            w.write(ch_p, truth.time[k + 1], &out)?;
+        }
         if k % 1000 == 999 {
             progress();
         }

@@ -377,8 +377,10 @@ pub fn run_filter(
         }
     };
     let dt = settings.dt();
+    // The measurement at t = 0 updates the prior; each later one follows a predict.
     for (k, z) in measurements.acceleration.iter().enumerate() {
-        if let Err(e) = filter.predict(&[], dt).and_then(|_| filter.update(z).map(|_| ())) {
+        let predicted = if k == 0 { Ok(()) } else { filter.predict(&[], dt) };
+        if let Err(e) = predicted.and_then(|_| filter.update(z).map(|_| ())) {
             run.failure = Some(format!("t = {:.3} s (sample {k}): {e}", truth.time[k]));
             return run;
         }

@@ -11,7 +11,8 @@ use estimator::models::Oscillator2Dof;
 
 use super::load::Load;
 
-/// The true history at the sample times `tₖ = k·dt`, `k = 1 … n`.
+/// The true history at the sample times `tₖ = k·dt`, `k = 0 … n` (the chain
+/// starts at rest at `t = 0`, where the load already acts).
 #[derive(Debug, Clone, Default)]
 pub struct Truth {
     /// Sample times (s).
@@ -26,7 +27,8 @@ pub struct Truth {
     pub acceleration: Vec<[f64; 2]>,
 }
 
-/// Simulates `samples` samples of `dt` from rest, with `substeps` RK4 steps per sample.
+/// Simulates `samples` samples of `dt` from rest, with `substeps` RK4 steps
+/// per sample: `samples + 1` instants with the start.
 pub fn simulate(chain: &Oscillator2Dof, load: &Load, dt: f64, samples: usize, substeps: usize) -> Truth {
     let h = dt / substeps as f64;
     // The load at every RK4 stage time: the grid of half steps.
@@ -37,6 +39,15 @@ pub fn simulate(chain: &Oscillator2Dof, load: &Load, dt: f64, samples: usize, su
     };
     let mut x = [0.0; 4];
     let mut truth = Truth::default();
+    let mut record = |t: f64, x: [f64; 4], at: usize| {
+        let rates = f(table[at], &x);
+        truth.time.push(t);
+        truth.motion.push(x);
+        truth.load.push(load.value(t));
+        truth.load_rate.push(load.rate(t));
+        truth.acceleration.push([rates[2], rates[3]]);
+    };
+    record(0.0, x, 0);
     for k in 0..samples {
         for s in 0..substeps {
             // Stage times from the step count (index 2j is t = j·h), so time never drifts.
@@ -49,13 +60,7 @@ pub fn simulate(chain: &Oscillator2Dof, load: &Load, dt: f64, samples: usize, su
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
             }
         }
-        let t = (k + 1) as f64 * dt;
-        let rates = f(table[2 * (k + 1) * substeps], &x);
-        truth.time.push(t);
-        truth.motion.push(x);
-        truth.load.push(load.value(t));
-        truth.load_rate.push(load.rate(t));
-        truth.acceleration.push([rates[2], rates[3]]);
+        record((k + 1) as f64 * dt, x, 2 * (k + 1) * substeps);
     }
     truth
 }

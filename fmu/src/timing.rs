@@ -1,0 +1,337 @@
+//! When the filter takes a measurement, and what the outputs are when they
+//! are read: the FMU's time semantics, apart from the FMI calls.
+//!
+//! The filter runs on the sample grid `tₖ = start + k·sample_time` (from `k`,
+//! never accumulated). With the default input timing, the FMI meaning of an
+//! input ([`InputTiming::AtCommunicationPoint`]):
+//!
+//! ```text
+//!  master:  set u(t)     get y          doStep(t, h)                 get y          set u(t+h)     get y
+//!  FMU:        │       x̂(t | t)    update at t with u(t),       x̂(t+h | t)           │        x̂(t+h | t+h)
+//!              └──────────┘        predict to t + h                                 └──────────────┘
+//!                 direct feedthrough                                                   direct feedthrough
+//! ```
+//!
+//! 1. A sample instant that is a communication point takes the inputs as they
+//!    stand there as its measurement, once: when the master steps on from it,
+//!    or earlier, for a read after an input was set at that point (direct
+//!    feedthrough; a later set before the step recomputes it from the
+//!    prediction, so a measurement never enters twice).
+//! 2. Sample instants strictly inside a communication step are predictions:
+//!    the inputs held over the step are the measurement of its start, not of
+//!    later instants.
+//! 3. Inputs set at a communication point off the grid are not measurements
+//!    (the sensor samples on the grid); a read there gives the prediction from
+//!    the last sample to that time, with the process noise of that interval.
+//! 4. So a read at `t` always gives the estimate at `t`: given the
+//!    measurements up to `t` once an input was set at `t`, and predicted from
+//!    the earlier ones before that.
+//!
+//! With [`InputTiming::AtStepEnd`] (masters that step the plant first and
+//! hand its outputs of `t + h` over before our step, Gauss–Seidel) the inputs
+//! set before `fmi2DoStep(t, h)` are the measurement of `t + h`: the step
+//! predicts to `t + h` and updates there when it is a sample instant, and the
+//! outputs after the step are `x̂(t+h | t+h)`. The outputs do not change when
+//! inputs are set.
+
+use estimator::{FilterError, Noise, Snapshot, StateEstimator};
+
+/// How the inputs set before `fmi2DoStep(t, h)` are timed (the `input_timing` parameter).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputTiming {
+    /// The measurement at `t` (FMI's meaning; Jacobi masters). The default.
+    AtCommunicationPoint,
+    /// The measurement at `t + h` (Gauss–Seidel masters that step the plant first).
+    AtStepEnd,
+}
+
+impl InputTiming {
+    /// The timing for an `input_timing` enumeration value.
+    pub fn from_value(value: f64) -> Result<Self, String> {
+        if value == 1.0 {
+            Ok(Self::AtCommunicationPoint)
+        } else if value == 2.0 {
+            Ok(Self::AtStepEnd)
+        } else {
+            Err(format!("parameter input_timing must be 1 (communication_point) or 2 (step_end), got {value}"))
+        }
+    }
+}
+
+/// A filter failure inside a communication step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepFailure {
+    /// The sample instant whose predict or update failed (s).
+    pub time: f64,
+    /// Its index on the grid.
+    pub sample: u64,
+    /// Which stage failed and why.
+    pub error: FilterError,
+    /// The time of the last good estimate (s).
+    pub last_good: f64,
+}
+
+/// What a read shows: the belief at the time read and the counts that go with it.
+pub struct Reading<'a> {
+    /// The belief at the time read.
+    pub belief: &'a dyn StateEstimator,
+    /// NIS of the latest update the belief includes.
+    pub nis: f64,
+    /// Measurement rows left out so far, including those of an update only this read made.
+    pub skipped: u64,
+}
+
+/// The running estimator of an instance: the filter on its grid, and a
+/// second filter of the same build that answers reads which must not touch it.
+pub struct Estimation {
+    /// The belief at sample `samples`.
+    filter: Box<dyn StateEstimator>,
+    /// Scratch for reads: the feedthrough update, the prediction off the grid.
+    reader: Box<dyn StateEstimator>,
+    /// The interval whose process noise the reader holds (s).
+    reader_interval: f64,
+    /// The reader holds the filter's belief updated with `posterior_inputs`
+    /// (a feedthrough read): the step commits it by a copy, not a second update.
+    posterior_ready: bool,
+    posterior_inputs: Vec<f64>,
+    posterior_nis: f64,
+    /// Buffers for copying the filter's belief into the reader.
+    copy: Snapshot,
+    start: f64,
+    sample_time: f64,
+    timing: InputTiming,
+    samples: u64,
+    /// Sample `samples` had its measurement (or is past without one).
+    measured: bool,
+    skipped: u64,
+    /// NIS of the latest update made (kept here: a restored belief has no innovation).
+    nis: f64,
+}
+
+/// The part of an [`Estimation`] an FMU state saves: the rest comes from the parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// Samples done since the start.
+    pub samples: u64,
+    /// The current sample had its measurement.
+    pub measured: bool,
+    /// Measurement rows left out so far.
+    pub skipped: u64,
+    /// NIS of the latest update.
+    pub nis: f64,
+    /// The filter's belief at the current sample.
+    pub belief: Snapshot,
+}
+
+impl Estimation {
+    /// Starts on the grid `start + k·sample_time` with `filter`'s belief at
+    /// `start`; `reader` is a second filter of the same build.
+    pub fn new(
+        filter: Box<dyn StateEstimator>,
+        reader: Box<dyn StateEstimator>,
+        start: f64,
+        sample_time: f64,
+        timing: InputTiming,
+    ) -> Self {
+        let copy = filter.snapshot();
+        let (m, nis) = (filter.measurement_dim(), filter.innovation().nis());
+        Self {
+            filter,
+            reader,
+            reader_interval: sample_time,
+            posterior_ready: false,
+            posterior_inputs: vec![f64::NAN; m],
+            posterior_nis: f64::NAN,
+            copy,
+            start,
+            sample_time,
+            timing,
+            samples: 0,
+            measured: false,
+            skipped: 0,
+            nis,
+        }
+    }
+
+    /// Continues from a saved [`Progress`] instead of the start.
+    pub fn resume(mut self, progress: &Progress) -> Result<Self, FilterError> {
+        self.filter.restore(&progress.belief)?;
+        self.samples = progress.samples;
+        self.measured = progress.measured;
+        self.skipped = progress.skipped;
+        self.nis = progress.nis;
+        Ok(self)
+    }
+
+    /// What an FMU state saves.
+    pub fn progress(&self) -> Progress {
+        Progress {
+            samples: self.samples,
+            measured: self.measured,
+            skipped: self.skipped,
+            nis: self.nis,
+            belief: self.filter.snapshot(),
+        }
+    }
+
+    /// NIS of the latest update made.
+    pub fn nis(&self) -> f64 {
+        self.nis
+    }
+
+    /// Measurement rows left out of the updates so far.
+    pub fn skipped(&self) -> u64 {
+        self.skipped
+    }
+
+    /// The filter on its grid.
+    pub fn filter(&self) -> &dyn StateEstimator {
+        self.filter.as_ref()
+    }
+
+    /// The input timing.
+    pub fn timing(&self) -> InputTiming {
+        self.timing
+    }
+
+    /// Sample instant `k`.
+    pub fn sample_instant(&self, k: u64) -> f64 {
+        self.start + k as f64 * self.sample_time
+    }
+
+    /// The instant of the filter's belief.
+    pub fn current_sample(&self) -> f64 {
+        self.sample_instant(self.samples)
+    }
+
+    /// Half-open tolerance of "at a sample instant": a master's clock may
+    /// carry rounding, never a microsecond at a millisecond sample time.
+    fn tolerance(&self) -> f64 {
+        1e-6 * self.sample_time
+    }
+
+    /// Whether `t` is the instant of the filter's belief (a sample instant).
+    pub fn at_current_sample(&self, t: f64) -> bool {
+        (t - self.current_sample()).abs() <= self.tolerance()
+    }
+
+    /// `fmi2DoStep(t, h)` with the inputs `z` as they stand (non-finite: missing).
+    pub fn step(&mut self, t: f64, h: f64, z: &[f64]) -> Result<(), StepFailure> {
+        let posterior_ready = std::mem::take(&mut self.posterior_ready);
+        if self.timing == InputTiming::AtCommunicationPoint && self.at_current_sample(t) && !self.measured {
+            let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+            if posterior_ready && same(&self.posterior_inputs, z) {
+                // The read already made this update: take its result, bit for bit.
+                self.reader.snapshot_into(&mut self.copy);
+                if let Err(error) = self.filter.restore(&self.copy) {
+                    return Err(self.failure(self.samples, error));
+                }
+                self.commit(self.posterior_nis, z);
+            } else {
+                self.update(z)?;
+            }
+        }
+        let end = t + h;
+        while self.sample_instant(self.samples + 1) <= end + self.tolerance() {
+            let result = self.filter.predict(&[], self.sample_time);
+            if let Err(error) = result {
+                return Err(self.failure(self.samples + 1, error));
+            }
+            self.samples += 1;
+            self.measured = false;
+        }
+        if self.timing == InputTiming::AtStepEnd && self.at_current_sample(end) {
+            self.update(z)?;
+        }
+        Ok(())
+    }
+
+    fn update(&mut self, z: &[f64]) -> Result<(), StepFailure> {
+        match self.filter.update(z) {
+            Ok(innovation) => {
+                let nis = innovation.nis();
+                self.commit(nis, z);
+                Ok(())
+            }
+            Err(error) => Err(self.failure(self.samples, error)),
+        }
+    }
+
+    fn commit(&mut self, nis: f64, z: &[f64]) {
+        self.measured = true;
+        self.skipped += missing_rows(z);
+        self.nis = nis;
+    }
+
+    fn failure(&self, sample: u64, error: FilterError) -> StepFailure {
+        let last_good = self.current_sample();
+        StepFailure { time: self.sample_instant(sample), sample, error, last_good }
+    }
+
+    /// The belief at time `t` (a communication point, not before the current
+    /// sample). `inputs` are the inputs when some were set at `t`;
+    /// `noise_over(dt)` builds `Q` and `R` for a prediction over `dt`.
+    pub fn read(
+        &mut self,
+        t: f64,
+        inputs: Option<&[f64]>,
+        noise_over: &dyn Fn(f64) -> Result<Noise, String>,
+    ) -> Result<Reading<'_>, String> {
+        self.posterior_ready = false;
+        let feedthrough = self.timing == InputTiming::AtCommunicationPoint && !self.measured;
+        if self.at_current_sample(t) {
+            match inputs {
+                Some(z) if feedthrough => {
+                    self.load_reader()?;
+                    let nis = match self.reader.update(z) {
+                        Ok(innovation) => innovation.nis(),
+                        Err(e) => return Err(format!("the update with the inputs at t = {t} s failed: {e}")),
+                    };
+                    self.posterior_inputs.copy_from_slice(z);
+                    (self.posterior_ready, self.posterior_nis) = (true, nis);
+                    let skipped = self.skipped + missing_rows(z);
+                    Ok(Reading { belief: self.reader.as_ref(), nis, skipped })
+                }
+                _ => Ok(Reading { belief: self.filter.as_ref(), nis: self.nis, skipped: self.skipped }),
+            }
+        } else {
+            let dt = t - self.current_sample();
+            if !(dt > 0.0 && dt < self.sample_time) {
+                return Err(format!(
+                    "t = {t} s is not within one sample after the filter's belief at {} s",
+                    self.current_sample()
+                ));
+            }
+            self.load_reader()?;
+            if dt != self.reader_interval {
+                let noise = noise_over(dt)?;
+                self.reader.set_noise(noise).map_err(|e| e.to_string())?;
+                self.reader_interval = dt;
+            }
+            self.reader
+                .predict(&[], dt)
+                .map_err(|e| format!("the prediction from {} s to {t} s failed: {e}", self.current_sample()))?;
+            Ok(Reading { belief: self.reader.as_ref(), nis: self.nis, skipped: self.skipped })
+        }
+    }
+
+    fn load_reader(&mut self) -> Result<(), String> {
+        self.filter.snapshot_into(&mut self.copy);
+        self.reader.restore(&self.copy).map_err(|e| format!("cannot copy the belief for the read: {e}"))
+    }
+
+    /// New `Q` and `R` (for one sample time), for the reads too; on error the
+    /// filter keeps its noise.
+    pub fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError> {
+        // The reader first: it is scratch, rebuilt from the filter at every read.
+        self.reader.set_noise(noise.clone())?;
+        self.reader_interval = self.sample_time;
+        // A feedthrough update made with the old R is no longer the one to commit.
+        self.posterior_ready = false;
+        self.filter.set_noise(noise)
+    }
+}
+
+fn missing_rows(z: &[f64]) -> u64 {
+    z.iter().filter(|v| !v.is_finite()).count() as u64
+}
