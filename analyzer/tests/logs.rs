@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
+use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
 use analyzer::read::read_log;
 use analyzer::report::{analyse, Options};
 use analyzer::LogError;
@@ -81,6 +81,35 @@ fn an_explicit_pair_replaces_the_naming_rule_and_a_bad_pair_is_named() {
     let options = Options { pairs: vec![("F".into(), "G".into())], ..Options::default() };
     let err = analyse(&run, &options).unwrap_err().to_string();
     assert!(err.contains("/estimate has no signal 'G'"), "{err}");
+}
+
+/// `--estimate-topic` compares the truth with another channel of estimates:
+/// an FMU's outputs read after each step (`/prediction`), here the truth
+/// delayed by one sample, whose known error the report measures.
+#[test]
+fn another_estimate_channel_is_compared_when_named() {
+    let path = temp("prediction.mcap");
+    let mut w = LogWriter::create(&path, &BTreeMap::new()).unwrap();
+    let t = w.add_channel(TRUTH, &[SignalSpec::new("F", "N", "true load")]).unwrap();
+    let e = w.add_channel(ESTIMATE, &[SignalSpec::new("F", "N", "estimate")]).unwrap();
+    let p = w.add_channel(PREDICTION, &[SignalSpec::new("F", "N", "one sample late")]).unwrap();
+    let truth = |k: usize| 10.0 * (2.0 * std::f64::consts::PI * 1.5 * k as f64 * 0.01).sin();
+    for k in 0..2000 {
+        let time = k as f64 * 0.01;
+        w.write(t, time, &[truth(k)]).unwrap();
+        w.write(e, time, &[truth(k)]).unwrap();
+        w.write(p, time, &[truth(k.saturating_sub(1))]).unwrap();
+    }
+    w.finish().unwrap();
+    let run = read_log(&path).unwrap();
+    let exact = analyse(&run, &Options::default()).unwrap();
+    assert_eq!(exact.pairs[0].comparison.rmse, 0.0);
+    let late = analyse(&run, &Options { estimate_topic: PREDICTION.into(), ..Options::default() }).unwrap();
+    // One sample of a 1.5 Hz sine of amplitude 10: RMS 10/√2 · 2 sin(π·1.5·0.01) ≈ 0.666.
+    let expected = 10.0 / 2f64.sqrt() * 2.0 * (std::f64::consts::PI * 1.5 * 0.01).sin();
+    assert!((late.pairs[0].comparison.rmse - expected).abs() < 0.01 * expected, "{}", late.pairs[0].comparison.rmse);
+    let missing = Options { estimate_topic: "/nowhere".into(), ..Options::default() };
+    assert!(analyse(&run, &missing).unwrap_err().to_string().contains("/nowhere"));
 }
 
 #[test]
