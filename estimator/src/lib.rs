@@ -27,6 +27,7 @@
 //! assert!(load.is_finite() && sigma > 0.0);
 //! ```
 
+mod chi_square;
 mod error;
 mod filter;
 mod gaussian;
@@ -35,6 +36,7 @@ mod linalg;
 mod model;
 mod noise;
 mod points;
+mod supervisor;
 
 pub mod models;
 
@@ -49,3 +51,4 @@ pub use linalg::SymmetricEigen;
 pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
+pub use supervisor::{Channel, FaultChange, Outcome, RowOutcome, Supervisor, SupervisorSettings};

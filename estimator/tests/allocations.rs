@@ -12,8 +12,8 @@ use std::cell::Cell;
 use common::*;
 use estimator::models::SpringChainForces;
 use estimator::{
-    CubatureKalman, Discretized, ExtendedKalman, Gaussian, Noise, SquareRootCubature, StateEstimator, SvdCubature,
-    UnscentedKalman, UnscentedParams,
+    CubatureKalman, Discretized, ExtendedKalman, Gaussian, Noise, SquareRootCubature, StateEstimator, Supervisor,
+    SupervisorSettings, SvdCubature, UnscentedKalman, UnscentedParams,
 };
 
 struct Counting;
@@ -96,6 +96,35 @@ fn no_filter_allocates_per_step_on_the_s1_model() {
     let (zs, _) = s1_measurements(200, 0.005, 1.0, 0.05, 9);
     for filter in s1_filters() {
         assert_no_allocation_per_step(filter, &zs, 0.005);
+    }
+}
+
+/// The supervisor's gate and bookkeeping allocate nothing per sample either,
+/// with spikes rejected and a stuck channel left out along the way.
+#[test]
+fn the_supervisor_allocates_nothing_per_sample() {
+    let (zs, _) = s1_measurements(400, 0.005, 1.0, 0.05, 6);
+    for mut filter in s1_filters() {
+        let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).unwrap();
+        let mut z = vec![0.0; 2];
+        let mut run = |filter: &mut Box<dyn StateEstimator>, range: std::ops::Range<usize>| {
+            for k in range {
+                z.copy_from_slice(&zs[k]);
+                if k % 37 == 0 {
+                    z[1] += 1e4;
+                }
+                if (200..240).contains(&k) {
+                    z[0] = 0.25;
+                }
+                filter.predict(&[], 0.005).unwrap();
+                supervisor.gate(filter.as_mut(), &z).unwrap();
+                supervisor.commit(|_| {});
+            }
+        };
+        run(&mut filter, 0..100);
+        let kind = filter.kind();
+        let n = allocations_during(|| run(&mut filter, 100..400));
+        assert_eq!(n, 0, "{kind}: {n} allocations in 300 supervised samples");
     }
 }
 

@@ -6,4 +6,5 @@ pub mod fmu_driver;
 pub mod replay;
 pub mod reproduce;
 pub mod s1;
+pub mod s1_faults;
 pub mod sweep;

@@ -3,6 +3,7 @@
 //! Usage:
 //!   scenarios reproduce [--study s1] [--quick]
 //!   scenarios s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
+//!   scenarios s1-faults [--case stiffness/random] [--shard K/N]
 //!   scenarios replay < spec.json > estimates.json
 //!   scenarios s1-export --case stiffness/random [--duration 60] [--seed 1] [--noise 0.02] --out s1.csv
 
@@ -23,6 +24,8 @@ enum Command {
     Reproduce(scenarios::reproduce::Args),
     /// Study S1 over many seeds and noise levels.
     S1Sweep(scenarios::sweep::Args),
+    /// Study S1 with gross measurement errors injected, every filter behind the supervisor.
+    S1Faults(scenarios::s1_faults::Args),
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
     /// Write the noisy accelerations and the true load of one S1 case as CSV (an FMU input table).
@@ -34,6 +37,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Reproduce(args) => scenarios::reproduce::run(args),
         Command::S1Sweep(args) => scenarios::sweep::run(args),
+        Command::S1Faults(args) => scenarios::s1_faults::run_command(args),
         Command::Replay(args) => scenarios::replay::run(args),
         Command::S1Export(args) => scenarios::export::run(args),
     };

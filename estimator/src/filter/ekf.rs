@@ -18,7 +18,7 @@ use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{FilterKind, StateEstimator};
+use crate::filter::{check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{mul_to, symmetrize, tr_mul_add, Lanes};
 use crate::model::{Model, BLOCK_POINTS};
@@ -203,6 +203,12 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
     fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
         let covariance = self.core.restore(FilterKind::Ekf, snapshot)?;
         self.p.copy_from_slice(covariance);
+        Ok(())
+    }
+
+    fn scale_covariance(&mut self, factor: f64) -> Result<(), FilterError> {
+        check_scale(factor)?;
+        self.p.scale_mut(factor);
         Ok(())
     }
 

@@ -76,6 +76,9 @@ pub trait StateEstimator {
     fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError>;
     /// Restarts from `prior` at time `t0`, keeping the buffers.
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
+    /// Scales the covariance: `P ← factor·P` (`factor ≥ 1`, finite), to open the
+    /// belief again when the measurements show it has lost the state.
+    fn scale_covariance(&mut self, factor: f64) -> Result<(), FilterError>;
 
     /// Writes the belief into `out` as plain numbers, reusing its buffers: no
     /// allocation once they have the capacity (copying a belief between two
@@ -133,6 +136,15 @@ impl Snapshot {
             return Err(FilterError::InvalidSetting("snapshot has non-finite values".into()));
         }
         Ok(())
+    }
+}
+
+/// Checks a covariance scale factor.
+pub(crate) fn check_scale(factor: f64) -> Result<(), FilterError> {
+    if factor >= 1.0 && factor.is_finite() {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidSetting(format!("covariance scale factor must be finite and at least 1, got {factor}")))
     }
 }
 

@@ -19,7 +19,7 @@ use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::covariance_root::CovarianceRoot;
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{FilterKind, StateEstimator};
+use crate::filter::{check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{axpy, symmetrize, Lanes};
 use crate::model::Model;
@@ -227,6 +227,12 @@ impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
     fn restore(&mut self, snapshot: &crate::filter::Snapshot) -> Result<(), FilterError> {
         let covariance = self.core.restore(self.kind, snapshot)?;
         self.p.copy_from_slice(covariance);
+        Ok(())
+    }
+
+    fn scale_covariance(&mut self, factor: f64) -> Result<(), FilterError> {
+        check_scale(factor)?;
+        self.p.scale_mut(factor);
         Ok(())
     }
 

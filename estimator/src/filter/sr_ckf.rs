@@ -36,7 +36,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{FilterKind, StateEstimator};
+use crate::filter::{check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Lanes, Tria};
 use crate::model::Model;
@@ -394,6 +394,15 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         let covariance = self.core.restore(FilterKind::SrCkf, snapshot)?;
         self.s.copy_from_slice(covariance);
         self.s.transpose_to(&mut self.s_t);
+        Ok(())
+    }
+
+    fn scale_covariance(&mut self, factor: f64) -> Result<(), FilterError> {
+        check_scale(factor)?;
+        // S·Sᵀ = P, so √factor·S is the root of factor·P.
+        let root = factor.sqrt();
+        self.s.scale_mut(root);
+        self.s_t.scale_mut(root);
         Ok(())
     }
 

@@ -16,10 +16,41 @@ use std::f64::consts::TAU;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// A load as a sum of cosines `Σ aₖ·cos(ωₖ t + φₖ)`, with its exact derivative.
+/// A load as a sum of cosines `Σ aₖ·cos(ωₖ t + φₖ)`, with its exact
+/// derivative, plus an optional step (a true jump, for the fault studies).
 #[derive(Debug, Clone)]
 pub struct Load {
     components: Vec<(f64, f64, f64)>,
+    step: Option<Step>,
+}
+
+/// A step of `size` N at `at` s, rising over [`Step::RISE`] s as a half
+/// cosine: continuous, so the truth integrator stays exact to RK4 order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// Start of the rise (s).
+    pub at: f64,
+    /// Height (N).
+    pub size: f64,
+}
+
+impl Step {
+    /// Rise time (s): 10 ms, two filter samples at 200 Hz.
+    pub const RISE: f64 = 0.01;
+
+    fn value(&self, t: f64) -> f64 {
+        let u = ((t - self.at) / Self::RISE).clamp(0.0, 1.0);
+        self.size * 0.5 * (1.0 - (std::f64::consts::PI * u).cos())
+    }
+
+    fn rate(&self, t: f64) -> f64 {
+        let u = (t - self.at) / Self::RISE;
+        if (0.0..=1.0).contains(&u) {
+            self.size * 0.5 * std::f64::consts::PI / Self::RISE * (std::f64::consts::PI * u).sin()
+        } else {
+            0.0
+        }
+    }
 }
 
 impl Load {
@@ -37,7 +68,12 @@ impl Load {
                 (amplitude, TAU * f, TAU * rng.random::<f64>())
             })
             .collect();
-        Self { components }
+        Self { components, step: None }
+    }
+
+    /// The same load with a step added.
+    pub fn with_step(self, step: Step) -> Self {
+        Self { step: Some(step), ..self }
     }
 
     /// The sum of harmonics at 1, 2, 3, 5 and 7 Hz.
@@ -47,17 +83,18 @@ impl Load {
             // sin(x) = cos(x − π/2).
             .map(|&(f, a)| (a, TAU * f, -std::f64::consts::FRAC_PI_2))
             .collect();
-        Self { components }
+        Self { components, step: None }
     }
 
     /// A constant load (a cosine of zero frequency).
     pub fn constant(value: f64) -> Self {
-        Self { components: vec![(value, 0.0, 0.0)] }
+        Self { components: vec![(value, 0.0, 0.0)], step: None }
     }
 
     /// `F(t)`.
     pub fn value(&self, t: f64) -> f64 {
-        self.components.iter().map(|(a, w, p)| a * (w * t + p).cos()).sum()
+        let step = self.step.map_or(0.0, |s| s.value(t));
+        self.components.iter().map(|(a, w, p)| a * (w * t + p).cos()).sum::<f64>() + step
     }
 
     /// `F(t₀ + j·step)` for `j = 0 … count−1`, by rotating each component's
@@ -77,7 +114,8 @@ impl Load {
                     *z = (a * (w * t + p).cos(), a * (w * t + p).sin());
                 }
             }
-            out.push(phasor.iter().map(|z| z.0).sum());
+            let step = self.step.map_or(0.0, |s| s.value(t0 + j as f64 * step));
+            out.push(phasor.iter().map(|z| z.0).sum::<f64>() + step);
             for (z, r) in phasor.iter_mut().zip(&rotation) {
                 *z = (z.0 * r.0 - z.1 * r.1, z.0 * r.1 + z.1 * r.0);
             }
@@ -87,7 +125,8 @@ impl Load {
 
     /// `Ḟ(t)`.
     pub fn rate(&self, t: f64) -> f64 {
-        self.components.iter().map(|(a, w, p)| -a * w * (w * t + p).sin()).sum()
+        let step = self.step.map_or(0.0, |s| s.rate(t));
+        self.components.iter().map(|(a, w, p)| -a * w * (w * t + p).sin()).sum::<f64>() + step
     }
 }
 
@@ -115,8 +154,19 @@ mod tests {
     }
 
     #[test]
+    fn a_step_rises_continuously_and_its_rate_is_its_derivative() {
+        let load = Load::constant(1.0).with_step(Step { at: 2.0, size: 100.0 });
+        assert_eq!((load.value(1.999), load.value(2.0)), (1.0, 1.0));
+        assert!((load.value(2.005) - 51.0).abs() < 1e-9);
+        assert_eq!(load.value(2.011), 101.0);
+        let (t, h) = (2.003, 1e-7);
+        let numeric = (load.value(t + h) - load.value(t - h)) / (2.0 * h);
+        assert!((numeric - load.rate(t)).abs() < 1e-4 * load.rate(t));
+    }
+
+    #[test]
     fn tabulated_values_equal_direct_evaluation() {
-        let load = Load::random(5, 10.0);
+        let load = Load::random(5, 10.0).with_step(Step { at: 0.1, size: 30.0 });
         let table = load.tabulate(0.0, 5e-5, 5000);
         for j in [0, 1, 1023, 1024, 1025, 4999] {
             assert!((table[j] - load.value(j as f64 * 5e-5)).abs() < 1e-10, "sample {j}");

@@ -1,0 +1,213 @@
+//! The supervisor as a specification, on a linear-Gaussian model where the
+//! filters are exactly consistent (the truth is the model): the gate never
+//! fires on healthy data, a rejected row is exactly a missing one, stuck and
+//! persistently failing channels are flagged and cleared, a true jump is
+//! re-acquired, an inconsistent filter is reported, and a gate that is not
+//! committed changes nothing. Every filter kind.
+
+mod common;
+
+use common::*;
+use estimator::{
+    build_filter, FilterKind, Noise, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams,
+};
+
+fn filter(kind: FilterKind, case: &LinearCase, r_scale: f64) -> Box<dyn StateEstimator> {
+    let noise = Noise::new(case.q.clone(), &case.r * r_scale).unwrap();
+    build_filter(kind, case.model.clone(), noise, &case.prior, UnscentedParams { alpha: 1.0, beta: 0.0, kappa: 0.0 })
+        .unwrap()
+}
+
+fn supervisor() -> Supervisor {
+    Supervisor::new(SupervisorSettings::default(), 3).unwrap()
+}
+
+/// Predict, gate, commit: one sample; returns the outcome's rows.
+fn step(f: &mut dyn StateEstimator, s: &mut Supervisor, u: &[f64], z: &[f64]) -> Vec<RowOutcome> {
+    f.predict(u, 0.01).unwrap();
+    let rows = s.gate(f, z).unwrap().rows.clone();
+    s.commit(|_| {});
+    rows
+}
+
+fn bits(f: &dyn StateEstimator) -> Vec<u64> {
+    f.mean().iter().chain(f.covariance().iter()).map(|x| x.to_bits()).collect()
+}
+
+#[test]
+fn the_gate_never_fires_on_healthy_data_and_the_filter_stays_consistent() {
+    // 3 rows × 20 000 samples × 5 filters = 300 000 rows; at the default
+    // probability 1e-6 per row, a consistent filter rejects none (P = 0.74).
+    let case = linear_case(20_000, 11);
+    for kind in FilterKind::ALL {
+        let (mut f, mut s) = (filter(kind, &case, 1.0), supervisor());
+        let mut unhealthy = 0;
+        for (u, z) in case.inputs.iter().zip(&case.measurements) {
+            step(f.as_mut(), &mut s, u, z);
+            unhealthy += usize::from(!s.healthy());
+        }
+        assert_eq!(s.rejected(), 0, "{kind}");
+        assert_eq!(unhealthy, 0, "{kind}");
+        assert_eq!(s.reacquisitions(), 0, "{kind}");
+        let mean = s.windowed_nis();
+        assert!((0.7..1.3).contains(&mean), "{kind}: windowed normalised innovation {mean}");
+    }
+}
+
+#[test]
+fn a_rejected_row_is_exactly_a_missing_one() {
+    let case = linear_case(300, 12);
+    for kind in FilterKind::ALL {
+        let (mut gated, mut s) = (filter(kind, &case, 1.0), supervisor());
+        let mut plain = filter(kind, &case, 1.0);
+        for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
+            let mut spiked = z.clone();
+            let mut missing = z.clone();
+            if k % 50 == 49 {
+                spiked[1] += 1e3; // a spike of about 2000 σ
+                missing[1] = f64::NAN;
+            }
+            let rows = step(gated.as_mut(), &mut s, u, &spiked);
+            plain.predict(u, 0.01).unwrap();
+            plain.update(&missing).unwrap();
+            assert_eq!(rows[1] == RowOutcome::Rejected, k % 50 == 49, "{kind} sample {k}");
+            assert_eq!(bits(gated.as_ref()), bits(plain.as_ref()), "{kind} sample {k}");
+        }
+        assert_eq!(s.rejected(), 6, "{kind}");
+        assert!(s.channels().iter().all(|c| !c.faulty), "{kind}: single spikes make no fault");
+    }
+}
+
+#[test]
+fn a_stuck_channel_is_left_out_and_flagged_until_it_moves() {
+    let settings = SupervisorSettings::default();
+    let case = linear_case(400, 13);
+    for kind in FilterKind::ALL {
+        let (mut f, mut s) = (filter(kind, &case, 1.0), supervisor());
+        let mut changes = Vec::new();
+        let held = case.measurements[100][2];
+        for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
+            let mut z = z.clone();
+            if (100..200).contains(&k) {
+                z[2] = held;
+            }
+            f.predict(u, 0.01).unwrap();
+            let row = s.gate(f.as_mut(), &z).unwrap().rows[2];
+            s.commit(|change| changes.push((k, change.channel, change.faulty)));
+            // The value is the same from 100 on; the stuck_after-th repetition is the first left out.
+            let stuck_from = 100 + settings.stuck_after as usize - 1;
+            assert_eq!(row == RowOutcome::Stuck, (stuck_from..200).contains(&k), "{kind} sample {k}");
+        }
+        let flagged = 100 + (settings.stuck_after + settings.fault_after) as usize - 2;
+        assert_eq!(changes, vec![(flagged, 2, true), (200, 2, false)], "{kind}");
+        assert_eq!(s.channels()[2].stuck, 200 - (100 + settings.stuck_after as u64 - 1), "{kind}");
+    }
+}
+
+#[test]
+fn a_true_jump_of_the_state_is_reacquired_and_followed() {
+    // The system jumps by 40 σ of its measurements at sample 300 (a load
+    // step, a bad prior): every row fails the gate; after reacquire_after
+    // samples the filter re-acquires and follows.
+    let settings = SupervisorSettings::default();
+    let mut case = linear_case(600, 14);
+    let h = case.model.h().clone();
+    let jump = nalgebra::DVector::from_column_slice(&[20.0, -15.0, 10.0, 12.0]);
+    // The measurements of a state moved by `jump` (the dynamics are stable,
+    // so the offset decays; a fresh truth run shifted at 300 keeps it simple).
+    let offset_rows: Vec<nalgebra::DVector<f64>> = (0..300)
+        .scan(jump.clone(), |x, _| {
+            let now = x.clone();
+            *x = case.model.a() * &*x;
+            Some(&h * now)
+        })
+        .collect();
+    for (k, z) in case.measurements.iter_mut().enumerate().skip(300) {
+        for (v, o) in z.iter_mut().zip(offset_rows[k - 300].iter()) {
+            *v += o;
+        }
+    }
+    for kind in FilterKind::ALL {
+        let (mut f, mut s) = (filter(kind, &case, 1.0), supervisor());
+        let mut reacquired_at = None;
+        let mut lost = 0;
+        for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
+            f.predict(u, 0.01).unwrap();
+            let outcome = s.gate(f.as_mut(), z).unwrap().clone();
+            s.commit(|_| {});
+            if outcome.reacquired.is_some() && reacquired_at.is_none() {
+                reacquired_at = Some(k);
+            }
+            lost += usize::from(s.lost());
+        }
+        let at = reacquired_at.unwrap_or_else(|| panic!("{kind}: never re-acquired"));
+        assert!(at < 300 + settings.reacquire_after as usize + 2, "{kind}: re-acquired at {at}");
+        assert!(lost <= settings.reacquire_after as usize + 2, "{kind}: lost for {lost} samples");
+        // Followed: the last 200 samples pass the gate.
+        assert!(s.channels().iter().all(|c| !c.faulty && c.bad_run == 0), "{kind}");
+        assert_eq!(s.reacquisitions(), 1, "{kind}");
+    }
+}
+
+#[test]
+fn an_inconsistent_filter_is_reported_and_a_consistent_one_is_not() {
+    // R told to the filter 25 times too small: σ of the innovations 5 times
+    // too small, which the gate alone would mostly hide.
+    let case = linear_case(1500, 15);
+    for kind in FilterKind::ALL {
+        let (mut f, mut s) = (filter(kind, &case, 1.0 / 25.0), supervisor());
+        let mut unhealthy = 0;
+        for (u, z) in case.inputs.iter().zip(&case.measurements) {
+            step(f.as_mut(), &mut s, u, z);
+            unhealthy += usize::from(!s.consistent());
+        }
+        assert!(unhealthy > 1000, "{kind}: inconsistent for only {unhealthy} of 1500 samples");
+        assert!(s.windowed_nis() > 3.0, "{kind}: {}", s.windowed_nis());
+    }
+}
+
+#[test]
+fn a_gate_that_is_not_committed_changes_nothing() {
+    // What an FMU's read does: gate a copy, show it, drop it.
+    let case = linear_case(300, 16);
+    for kind in FilterKind::ALL {
+        let (mut a, mut sa) = (filter(kind, &case, 1.0), supervisor());
+        let (mut b, mut sb) = (filter(kind, &case, 1.0), supervisor());
+        let mut copy = filter(kind, &case, 1.0);
+        for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
+            let mut z = z.clone();
+            if k % 7 == 0 {
+                z[0] += 500.0;
+            }
+            a.predict(u, 0.01).unwrap();
+            copy.restore(&a.snapshot()).unwrap();
+            sa.gate(copy.as_mut(), &[f64::NAN, 1e6, 3.0]).unwrap();
+            sa.gate(a.as_mut(), &z).unwrap();
+            sa.commit(|_| {});
+            step(b.as_mut(), &mut sb, u, &z);
+            assert_eq!(bits(a.as_ref()), bits(b.as_ref()), "{kind} sample {k}");
+        }
+        assert_eq!((sa.rejected(), sa.healthy()), (sb.rejected(), sb.healthy()));
+    }
+}
+
+#[test]
+fn settings_out_of_range_are_refused_with_the_reason() {
+    let bad = [
+        SupervisorSettings { gate_probability: 0.0, ..SupervisorSettings::default() },
+        SupervisorSettings { fault_after: 0, ..SupervisorSettings::default() },
+        SupervisorSettings { stuck_after: 1, ..SupervisorSettings::default() },
+        SupervisorSettings { consistency_probability: 1.0, ..SupervisorSettings::default() },
+        SupervisorSettings { consistency_margin: 0.5, ..SupervisorSettings::default() },
+    ];
+    for settings in bad {
+        assert!(Supervisor::new(settings, 2).is_err(), "{settings:?}");
+    }
+    let off = SupervisorSettings { gate_probability: 1.0, ..SupervisorSettings::default() };
+    let case = linear_case(50, 17);
+    let (mut f, mut s) = (filter(FilterKind::Ckf, &case, 1.0), Supervisor::new(off, 3).unwrap());
+    let mut z = case.measurements[10].clone();
+    z[0] += 1e4;
+    f.predict(&case.inputs[0], 0.01).unwrap();
+    assert_eq!(s.gate(f.as_mut(), &z).unwrap().rows, vec![RowOutcome::Used; 3], "probability 1: no gate");
+}

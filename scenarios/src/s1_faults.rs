@@ -1,0 +1,135 @@
+//! `scenarios s1-faults`: every filter behind the supervisor on S1 with each
+//! fault of `s1/faults.rs` injected; prints per run the false rejections,
+//! the detection delay, the load error in σ and the recovery after a true
+//! step. The runs are independent: they go to both cores, and `--shard K/N`
+//! runs every N-th one (from the K-th) for a batch system.
+
+use std::fmt::Write as _;
+use std::sync::Mutex;
+
+use estimator::{FilterKind, SupervisorSettings};
+
+use crate::s1::faults::{inject, run, Fault, FaultRun};
+use crate::s1::{Case, Settings};
+
+/// Command-line arguments of `scenarios s1-faults`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The case.
+    #[arg(long, default_value = "stiffness/random")]
+    pub case: Case,
+    /// Seed of the load and the noise.
+    #[arg(long, default_value_t = Settings::default().seed)]
+    pub seed: u64,
+    /// Simulated duration in seconds (the faults start at 20 s).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Gate probability (1 turns the gate off).
+    #[arg(long, default_value_t = SupervisorSettings::default().gate_probability)]
+    pub gate: f64,
+    /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
+    #[arg(long, value_parser = parse_shard, default_value = "1/1")]
+    pub shard: (usize, usize),
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (k, n) = s.split_once('/').ok_or("expected K/N, e.g. 1/2")?;
+    let (k, n): (usize, usize) =
+        (k.parse().map_err(|_| "K is not a number")?, n.parse().map_err(|_| "N is not a number")?);
+    if n == 0 || k == 0 || k > n {
+        return Err(format!("shard {k}/{n}: need 1 ≤ K ≤ N"));
+    }
+    Ok((k, n))
+}
+
+/// Runs the subcommand.
+pub fn run_command(args: &Args) -> anyhow::Result<()> {
+    let settings = Settings { seed: args.seed, duration: args.duration, ..Settings::default() };
+    settings.validate().map_err(anyhow::Error::msg)?;
+    let supervision = SupervisorSettings { gate_probability: args.gate, ..SupervisorSettings::default() };
+    supervision.validate()?;
+    let jobs: Vec<(Fault, FilterKind)> = Fault::ALL
+        .iter()
+        .flat_map(|&f| FilterKind::ALL.iter().map(move |&k| (f, k)))
+        .enumerate()
+        .filter(|(j, _)| j % args.shard.1 == args.shard.0 - 1)
+        .map(|(_, job)| job)
+        .collect();
+    let results: Mutex<Vec<(usize, FaultRun)>> = Mutex::new(Vec::new());
+    let next = Mutex::new(0usize);
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(jobs.len().max(1));
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| loop {
+                let j = {
+                    let mut next = next.lock().expect("the job counter");
+                    *next += 1;
+                    *next - 1
+                };
+                let Some(&(fault, kind)) = jobs.get(j) else { break };
+                let injected = inject(fault, &args.case, &settings);
+                let outcome = run(kind, &injected, &args.case, &settings, supervision);
+                results.lock().expect("the results").push((j, outcome));
+            });
+        }
+    });
+    let mut results = results.into_inner().expect("the results");
+    results.sort_by_key(|(j, _)| *j);
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "S1 {} with faults from 20 s ({} s, seed {}, gate probability 1 − {:.0e}); supervisor defaults of estimator::SupervisorSettings",
+        args.case,
+        args.duration,
+        args.seed,
+        1.0 - args.gate
+    );
+    let _ = writeln!(
+        out,
+        "{:<11} {:<8} {:>13} {:>12} {:>7} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7}",
+        "fault",
+        "filter",
+        "false rej.",
+        "bad rej.",
+        "delay",
+        "false flt",
+        "unhealthy",
+        "max |e|/σ",
+        "corr",
+        "recovery",
+        "reacq."
+    );
+    let mut failures = 0;
+    for (_, r) in &results {
+        if let Some(why) = &r.failure {
+            failures += 1;
+            let _ = writeln!(out, "{:<11} {:<8} FAILED: {why}", r.fault.to_string(), r.kind.name());
+            continue;
+        }
+        let rate = r.false_rejections as f64 / r.good_rows.max(1) as f64;
+        let _ = writeln!(
+            out,
+            "{:<11} {:<8} {:>5} {:>7.1e} {:>5}/{:<6} {:>7} {:>10} {:>9} {:>10.2} {:>8.5} {:>9} {:>7}",
+            r.fault.to_string(),
+            r.kind.name(),
+            r.false_rejections,
+            rate,
+            r.corrupted_rejected.0,
+            r.corrupted_rejected.1,
+            r.detection_delay.map_or("—".into(), |d| d.to_string()),
+            r.false_fault_samples,
+            r.unhealthy_samples,
+            r.max_error_sigmas,
+            r.correlation,
+            r.recovery.map_or("—".into(), |t| format!("{t:.3}s")),
+            r.reacquisitions
+        );
+    }
+    print!("{out}");
+    println!("false rej.: good rows rejected (count, rate); bad rej.: corrupted finite rows rejected / offered; delay: samples from the first corrupted sample to the first flag on its channel");
+    println!("false flt: samples a channel was flagged faulty with no corrupted or missing sample in its last fault_after samples; unhealthy: samples inconsistent or lost");
+    if failures > 0 {
+        anyhow::bail!("{failures} run(s) failed");
+    }
+    Ok(())
+}
