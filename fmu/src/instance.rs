@@ -9,12 +9,12 @@
 
 use std::ffi::CString;
 
-use estimator::{StateEstimator, UnscentedParams};
+use estimator::{StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
 
 use crate::estimators::{self, Descriptor};
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
 use crate::state::ModelState;
-use crate::timing::{Estimation, InputTiming};
+use crate::timing::{Estimation, Event, InputTiming, Reading};
 use crate::variables::{Causality, Parameters, Role, Variability, Variable};
 
 /// The log categories of `<LogCategories>`.
@@ -165,10 +165,6 @@ impl Instance {
         }
     }
 
-    fn role_value(&self, role: Role) -> f64 {
-        self.descriptor.variables.iter().zip(&self.values).find(|(v, _)| v.role == role).map_or(f64::NAN, |(_, x)| *x)
-    }
-
     /// Checks that variable `vr` may be set now, returning its index.
     pub fn check_settable(&self, vr: u32) -> Result<usize, String> {
         let index = vr as usize;
@@ -265,8 +261,11 @@ impl Instance {
     /// parameters (left as they were while the parameters do not build a filter).
     pub fn refresh_initial_outputs(&mut self) {
         if let Ok(filter) = build_filter(&self.descriptor, &self.values, self.start_time) {
+            let faulty = vec![false; self.descriptor.measurement_dim()];
             let nis = filter.innovation().nis();
-            write_outputs(&self.descriptor.variables, &mut self.values, Some(filter.as_ref()), nis, 0);
+            let prior =
+                Reading { belief: filter.as_ref(), nis, skipped: 0, rejected: 0, faulty: &faulty, healthy: true };
+            write_outputs(&self.descriptor.variables, &mut self.values, Some(&prior));
         }
     }
 
@@ -290,10 +289,23 @@ impl Instance {
             return self.error("fmi2DoStep: no filter (internal state lost)");
         };
         let end = t + h;
-        if let Err(failure) = estimation.step(t, h, &self.measurement) {
+        let stepped = estimation.step(t, h, &self.measurement);
+        self.report_events();
+        let Some(estimation) = self.estimation.as_mut() else {
+            return self.error("fmi2DoStep: no filter (internal state lost)");
+        };
+        if let Err(failure) = stepped {
             // Show the last good estimate, as it is, and say when it was.
-            let (nis, skipped) = (estimation.nis(), estimation.skipped());
-            write_outputs(&self.descriptor.variables, &mut self.values, Some(estimation.filter()), nis, skipped);
+            let faulty: Vec<bool> = estimation.supervisor().channels().iter().map(|c| c.faulty).collect();
+            let last = Reading {
+                belief: estimation.filter(),
+                nis: estimation.nis(),
+                skipped: estimation.skipped(),
+                rejected: estimation.supervisor().rejected(),
+                faulty: &faulty,
+                healthy: false,
+            };
+            write_outputs(&self.descriptor.variables, &mut self.values, Some(&last));
             self.outputs_stale = false;
             self.state = ModelState::StepFailed;
             self.set_role(Role::FilterHealthy, 0.0);
@@ -332,6 +344,45 @@ impl Instance {
         Fmi2Status::Ok
     }
 
+    /// Logs what the supervisor reported during the last step, once per
+    /// episode: an input becoming faulty or good again, a re-acquisition, the
+    /// filter becoming inconsistent or consistent again.
+    fn report_events(&mut self) {
+        let mut events = Vec::new();
+        if let Some(estimation) = self.estimation.as_mut() {
+            estimation.take_events(|e| events.push(e));
+        }
+        let input = |row: usize| {
+            self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).map_or("?", |v| v.name)
+        };
+        for event in events {
+            let (status, category, text) = match event {
+                Event::Fault { channel, faulty: true, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("input {} is faulty from t = {time} s: rejected by the gate, stuck or missing for fault_after samples in a row; it is left out of the updates", input(channel)),
+                ),
+                Event::Fault { channel, faulty: false, time } => {
+                    (Fmi2Status::Ok, "logEvents", format!("input {} is good again at t = {time} s", input(channel)))
+                }
+                Event::Reacquired { channel, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("re-acquired at t = {time} s: input {} failed the gate reacquire_after samples in a row; the covariance was inflated and every input used", input(channel)),
+                ),
+                Event::Consistent { consistent: false, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("the filter is inconsistent from t = {time} s: its innovations over the last consistency_window samples exceed their bound (filter_healthy is false)"),
+                ),
+                Event::Consistent { consistent: true, time } => {
+                    (Fmi2Status::Ok, "logEvents", format!("the filter is consistent again at t = {time} s"))
+                }
+            };
+            self.log(status, category, &text);
+        }
+    }
+
     /// `fmi2Terminate`: the outputs stay those of the final time.
     pub fn terminate(&mut self) {
         self.refresh_outputs();
@@ -359,15 +410,13 @@ impl Instance {
         let inputs = self.inputs_set.then_some(self.measurement.as_slice());
         let failed = match estimation.read(self.time, inputs, &noise_over) {
             Ok(reading) => {
-                let (belief, nis, skipped) = (Some(reading.belief), reading.nis, reading.skipped);
-                write_outputs(&self.descriptor.variables, &mut self.values, belief, nis, skipped);
+                write_outputs(&self.descriptor.variables, &mut self.values, Some(&reading));
                 None
             }
             Err(why) => Some(why),
         };
         if let Some(why) = failed {
-            let skipped = self.role_value(Role::SkippedMeasurements) as u64;
-            write_outputs(&self.descriptor.variables, &mut self.values, None, f64::NAN, skipped);
+            write_outputs(&self.descriptor.variables, &mut self.values, None);
             self.log(
                 Fmi2Status::Warning,
                 "logStatusWarning",
@@ -406,21 +455,22 @@ impl Instance {
     }
 }
 
-/// Writes the estimates of `belief` (NaN without one), their standard
-/// deviations, the NIS and the skipped count into the output values.
-fn write_outputs(
-    variables: &[Variable],
-    values: &mut [f64],
-    belief: Option<&dyn StateEstimator>,
-    nis: f64,
-    skipped: u64,
-) {
+/// Writes a reading into the output values: the estimates, their standard
+/// deviations, the NIS, the counts and the flags; without one (a read that
+/// could not be computed) the estimates and the NIS are NaN and the filter is
+/// not healthy, the counts stay.
+fn write_outputs(variables: &[Variable], values: &mut [f64], reading: Option<&Reading<'_>>) {
     for (v, x) in variables.iter().zip(values.iter_mut()) {
-        match v.role {
-            Role::Estimate(i) => *x = belief.map_or(f64::NAN, |b| b.mean()[i]),
-            Role::EstimateStd(i) => *x = belief.map_or(f64::NAN, |b| b.variance(i).max(0.0).sqrt()),
-            Role::Nis => *x = nis,
-            Role::SkippedMeasurements => *x = skipped as f64,
+        match (v.role, reading) {
+            (Role::Estimate(i), Some(r)) => *x = r.belief.mean()[i],
+            (Role::EstimateStd(i), Some(r)) => *x = r.belief.variance(i).max(0.0).sqrt(),
+            (Role::Nis, Some(r)) => *x = r.nis,
+            (Role::SkippedMeasurements, Some(r)) => *x = r.skipped as f64,
+            (Role::RejectedMeasurements, Some(r)) => *x = r.rejected as f64,
+            (Role::ChannelFault(row), Some(r)) => *x = f64::from(u8::from(r.faulty[row])),
+            (Role::FilterHealthy, Some(r)) => *x = f64::from(u8::from(r.healthy)),
+            (Role::Estimate(_) | Role::EstimateStd(_) | Role::Nis, None) => *x = f64::NAN,
+            (Role::FilterHealthy, None) => *x = 0.0,
             _ => {}
         }
     }
@@ -452,7 +502,18 @@ pub(crate) fn build_estimation(descriptor: &Descriptor, values: &[f64], start_ti
     let p = Parameters::new(&descriptor.variables, values);
     let timing = InputTiming::from_value(p.get("input_timing")?)?;
     let sample_time = p.positive("sample_time")?;
+    let count = |name: &str| -> Result<u32, String> { Ok(p.get(name)? as u32) };
+    let settings = SupervisorSettings {
+        gate_probability: p.get("gate_probability")?,
+        fault_after: count("fault_after")?,
+        reacquire_after: count("reacquire_after")?,
+        stuck_after: count("stuck_after")?,
+        window: count("consistency_window")? as usize,
+        consistency_probability: SupervisorSettings::default().consistency_probability,
+        consistency_margin: p.get("consistency_margin")?,
+    };
+    let supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;
     let filter = build_filter(descriptor, values, start_time)?;
     let reader = build_filter(descriptor, values, start_time)?;
-    Ok(Estimation::new(filter, reader, start_time, sample_time, timing))
+    Ok(Estimation::new(filter, reader, start_time, sample_time, timing, supervisor))
 }

@@ -191,6 +191,31 @@ const TIMING: &str = concat!(
     "estimate, whose time <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> gives.</li>\n</ul>",
 );
 
+/// Gross errors and the health flags, for `documentation/index.html` (`estimator::Supervisor`).
+const SUPERVISION: &str = concat!(
+    "<p>Every update goes through a supervisor (estimator/src/supervisor.rs):</p>\n<ul>\n",
+    "<li><b>Gate.</b> A measurement row whose normalised innovation ν²/S exceeds the χ²(1) quantile of ",
+    "<code>gate_probability</code> (default 1 − 1e-6, about 4.9σ) is left out of that update, exactly as a missing ",
+    "one, and counted in <code>rejected_measurements</code>; so is the worst row when the rows kept fail together. ",
+    "<code>gate_probability</code> = 1 turns the gate off.</li>\n",
+    "<li><b>Stuck.</b> An input that repeats its value bit for bit <code>stuck_after</code> times (default 5) is left ",
+    "out until it changes: a live sensor has noise.</li>\n",
+    "<li><b><code>&lt;input&gt;_fault</code></b> is true while the input's last <code>fault_after</code> samples ",
+    "(default 3) were all rejected, stuck or missing, and false again at the first sample it passes. Each change is ",
+    "logged once, with the input and the time.</li>\n",
+    "<li><b>Re-acquisition.</b> An input failing the gate <code>reacquire_after</code> samples in a row (default 10) ",
+    "makes the filter inflate its covariance and update with every input, so that the gate cannot lock it out of a ",
+    "true change (a load step); if that input fails again within <code>consistency_window</code> samples it was the ",
+    "sensor, and it triggers no more until it passes. Every input failing <code>reacquire_after</code> samples in a ",
+    "row re-acquires regardless. Each re-acquisition is logged.</li>\n",
+    "<li><b><code>filter_healthy</code></b> is false while the filter is inconsistent (the normalised innovations of ",
+    "the last <code>consistency_window</code> samples, each clipped at the gate, exceed <code>consistency_margin</code> ",
+    "times their χ² bound: its σ no longer covers the errors its innovations reveal), while every input is rejected, ",
+    "and for good once the filter has failed (fmi2Discard). It is true again when the window is back within bound; ",
+    "both changes are logged. An input that fails the gate for a whole window makes the filter inconsistent too: ",
+    "from the data alone it cannot tell whether that sensor or the estimate is wrong.</li>\n</ul>",
+);
+
 /// `documentation/index.html`: the study, the time semantics, and a table of
 /// every variable.
 pub fn documentation(d: &Descriptor) -> String {
@@ -203,6 +228,7 @@ pub fn documentation(d: &Descriptor) -> String {
          <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
          <h2>The study</h2>\n{doc}\n\
          <h2>Time: which measurement, which estimate</h2>\n{TIMING}\n\
+         <h2>Gross errors, faults and health</h2>\n{SUPERVISION}\n\
          <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
          fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
          The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free and restores exactly in a new instance.</p>\n",

@@ -8,6 +8,7 @@
 //! values (u32 count + f64 each)
 //! per input channel (u32 count, then each): ever set (u8)  missing reported (u8)
 //! estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
+//!                           supervisor memory (u32 count + u64 each)
 //!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
 //! ```
 //!
@@ -22,7 +23,7 @@ use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.
@@ -53,6 +54,10 @@ pub fn save(instance: &Instance) -> Vec<u8> {
             w.u8(u8::from(p.measured));
             w.u64(p.skipped);
             w.f64(p.nis);
+            w.u32(p.supervisor.len() as u32);
+            for &word in &p.supervisor {
+                w.u64(word);
+            }
             w.u8(kind_tag(p.belief.kind));
             w.f64(p.belief.time);
             w.f64s(&p.belief.input);
@@ -119,11 +124,16 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Save
         0 => None,
         _ => {
             let (samples, measured, skipped, nis) = (r.u64()?, r.u8()? != 0, r.u64()?, r.f64()?);
+            let words = r.u32()? as usize;
+            if words > r.bytes.len() / 8 {
+                return Err("FMU state is truncated".into());
+            }
+            let supervisor = (0..words).map(|_| r.u64()).collect::<Result<Vec<u64>, String>>()?;
             let kind = kind_of(r.u8()?)?;
             let time = r.f64()?;
             let (input, mean, covariance) = (r.f64s()?, r.f64s()?, r.f64s()?);
             let belief = Snapshot { kind, time, input, mean, covariance };
-            Some(Progress { samples, measured, skipped, nis, belief })
+            Some(Progress { samples, measured, skipped, nis, supervisor, belief })
         }
     };
     if r.at != bytes.len() {

@@ -34,7 +34,7 @@
 //! outputs after the step are `x̂(t+h | t+h)`. The outputs do not change when
 //! inputs are set.
 
-use estimator::{FilterError, Noise, Snapshot, StateEstimator};
+use estimator::{FaultChange, FilterError, Noise, Snapshot, StateEstimator, Supervisor};
 
 /// How the inputs set before `fmi2DoStep(t, h)` are timed (the `input_timing` parameter).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,8 +77,25 @@ pub struct Reading<'a> {
     pub belief: &'a dyn StateEstimator,
     /// NIS of the latest update the belief includes.
     pub nis: f64,
-    /// Measurement rows left out so far, including those of an update only this read made.
+    /// Measurement rows left out so far as missing, including those of an update only this read made.
     pub skipped: u64,
+    /// Measurement rows rejected by the gate so far, likewise.
+    pub rejected: u64,
+    /// Per measurement row: the channel is faulty, likewise.
+    pub faulty: &'a [bool],
+    /// The filter is consistent and not lost (`estimator::Supervisor::healthy`).
+    pub healthy: bool,
+}
+
+/// Something a driver reports once, when it happens.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// A channel became faulty (`true`) or good again (`false`) at the time.
+    Fault { channel: usize, faulty: bool, time: f64 },
+    /// The filter re-acquired at the time; the channel that triggered it.
+    Reacquired { channel: usize, time: f64 },
+    /// The filter became inconsistent (`false`) or consistent again (`true`) at the time.
+    Consistent { consistent: bool, time: f64 },
 }
 
 /// The running estimator of an instance: the filter on its grid, and a
@@ -91,10 +108,10 @@ pub struct Estimation {
     /// The interval whose process noise the reader holds (s).
     reader_interval: f64,
     /// The reader holds the filter's belief updated with `posterior_inputs`
-    /// (a feedthrough read): the step commits it by a copy, not a second update.
+    /// (a feedthrough read), and the supervisor that update's outcome: the
+    /// step commits both by a copy, not a second update.
     posterior_ready: bool,
     posterior_inputs: Vec<f64>,
-    posterior_nis: f64,
     /// Buffers for copying the filter's belief into the reader.
     copy: Snapshot,
     start: f64,
@@ -106,6 +123,12 @@ pub struct Estimation {
     skipped: u64,
     /// NIS of the latest update made (kept here: a restored belief has no innovation).
     nis: f64,
+    /// Gate, fault flags, re-acquisition and consistency of the updates.
+    supervisor: Supervisor,
+    /// Per measurement row, for readings: the fault flags shown.
+    faulty: Vec<bool>,
+    /// What happened since the driver last took the events.
+    events: Vec<Event>,
 }
 
 /// The part of an [`Estimation`] an FMU state saves: the rest comes from the parameters.
@@ -119,19 +142,23 @@ pub struct Progress {
     pub skipped: u64,
     /// NIS of the latest update.
     pub nis: f64,
+    /// The supervisor's memory (`estimator::Supervisor::save`).
+    pub supervisor: Vec<u64>,
     /// The filter's belief at the current sample.
     pub belief: Snapshot,
 }
 
 impl Estimation {
     /// Starts on the grid `start + k·sample_time` with `filter`'s belief at
-    /// `start`; `reader` is a second filter of the same build.
+    /// `start`; `reader` is a second filter of the same build; every update
+    /// goes through `supervisor`.
     pub fn new(
         filter: Box<dyn StateEstimator>,
         reader: Box<dyn StateEstimator>,
         start: f64,
         sample_time: f64,
         timing: InputTiming,
+        supervisor: Supervisor,
     ) -> Self {
         let copy = filter.snapshot();
         let (m, nis) = (filter.measurement_dim(), filter.innovation().nis());
@@ -141,7 +168,6 @@ impl Estimation {
             reader_interval: sample_time,
             posterior_ready: false,
             posterior_inputs: vec![f64::NAN; m],
-            posterior_nis: f64::NAN,
             copy,
             start,
             sample_time,
@@ -150,6 +176,9 @@ impl Estimation {
             measured: false,
             skipped: 0,
             nis,
+            supervisor,
+            faulty: vec![false; m],
+            events: Vec::with_capacity(2 * m + 2),
         }
     }
 
@@ -160,6 +189,7 @@ impl Estimation {
         self.measured = progress.measured;
         self.skipped = progress.skipped;
         self.nis = progress.nis;
+        self.supervisor.load(&progress.supervisor)?;
         Ok(self)
     }
 
@@ -170,6 +200,11 @@ impl Estimation {
             measured: self.measured,
             skipped: self.skipped,
             nis: self.nis,
+            supervisor: {
+                let mut words = Vec::new();
+                self.supervisor.save(&mut words);
+                words
+            },
             belief: self.filter.snapshot(),
         }
     }
@@ -182,6 +217,18 @@ impl Estimation {
     /// Measurement rows left out of the updates so far.
     pub fn skipped(&self) -> u64 {
         self.skipped
+    }
+
+    /// The supervisor of the updates.
+    pub fn supervisor(&self) -> &Supervisor {
+        &self.supervisor
+    }
+
+    /// Takes the events since the last call, oldest first.
+    pub fn take_events(&mut self, mut each: impl FnMut(Event)) {
+        for event in self.events.drain(..) {
+            each(event);
+        }
     }
 
     /// The filter on its grid.
@@ -226,7 +273,7 @@ impl Estimation {
                 if let Err(error) = self.filter.restore(&self.copy) {
                     return Err(self.failure(self.samples, error));
                 }
-                self.commit(self.posterior_nis, z);
+                self.commit(z);
             } else {
                 self.update(z)?;
             }
@@ -247,20 +294,30 @@ impl Estimation {
     }
 
     fn update(&mut self, z: &[f64]) -> Result<(), StepFailure> {
-        match self.filter.update(z) {
-            Ok(innovation) => {
-                let nis = innovation.nis();
-                self.commit(nis, z);
+        match self.supervisor.gate(self.filter.as_mut(), z) {
+            Ok(_) => {
+                self.commit(z);
                 Ok(())
             }
             Err(error) => Err(self.failure(self.samples, error)),
         }
     }
 
-    fn commit(&mut self, nis: f64, z: &[f64]) {
+    /// Counts the supervisor's pending outcome of the update at the current sample.
+    fn commit(&mut self, z: &[f64]) {
+        let time = self.current_sample();
         self.measured = true;
         self.skipped += missing_rows(z);
-        self.nis = nis;
+        self.nis = self.supervisor.pending().nis;
+        if let Some(channel) = self.supervisor.pending().reacquired {
+            self.events.push(Event::Reacquired { channel, time });
+        }
+        let was_consistent = self.supervisor.consistent();
+        let events = &mut self.events;
+        self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));
+        if self.supervisor.consistent() != was_consistent {
+            self.events.push(Event::Consistent { consistent: self.supervisor.consistent(), time });
+        }
     }
 
     fn failure(&self, sample: u64, error: FilterError) -> StepFailure {
@@ -283,16 +340,21 @@ impl Estimation {
             match inputs {
                 Some(z) if feedthrough => {
                     self.load_reader()?;
-                    let nis = match self.reader.update(z) {
-                        Ok(innovation) => innovation.nis(),
+                    let nis = match self.supervisor.gate(self.reader.as_mut(), z) {
+                        Ok(outcome) => outcome.nis,
                         Err(e) => return Err(format!("the update with the inputs at t = {t} s failed: {e}")),
                     };
                     self.posterior_inputs.copy_from_slice(z);
-                    (self.posterior_ready, self.posterior_nis) = (true, nis);
+                    self.posterior_ready = true;
                     let skipped = self.skipped + missing_rows(z);
-                    Ok(Reading { belief: self.reader.as_ref(), nis, skipped })
+                    for (c, flag) in self.faulty.iter_mut().enumerate() {
+                        *flag = self.supervisor.faulty_with_pending(c);
+                    }
+                    let rejected = self.supervisor.rejected_with_pending();
+                    let healthy = self.supervisor.healthy();
+                    Ok(Reading { belief: self.reader.as_ref(), nis, skipped, rejected, faulty: &self.faulty, healthy })
                 }
-                _ => Ok(Reading { belief: self.filter.as_ref(), nis: self.nis, skipped: self.skipped }),
+                _ => Ok(self.committed_reading(false)),
             }
         } else {
             let dt = t - self.current_sample();
@@ -311,7 +373,22 @@ impl Estimation {
             self.reader
                 .predict(&[], dt)
                 .map_err(|e| format!("the prediction from {} s to {t} s failed: {e}", self.current_sample()))?;
-            Ok(Reading { belief: self.reader.as_ref(), nis: self.nis, skipped: self.skipped })
+            Ok(self.committed_reading(true))
+        }
+    }
+
+    /// A reading of the committed counts, with the filter's belief or the reader's.
+    fn committed_reading(&mut self, reader: bool) -> Reading<'_> {
+        for (c, flag) in self.faulty.iter_mut().enumerate() {
+            *flag = self.supervisor.channels()[c].faulty;
+        }
+        Reading {
+            belief: if reader { self.reader.as_ref() } else { self.filter.as_ref() },
+            nis: self.nis,
+            skipped: self.skipped,
+            rejected: self.supervisor.rejected(),
+            faulty: &self.faulty,
+            healthy: self.supervisor.healthy(),
         }
     }
 

@@ -66,7 +66,11 @@ pub enum Role {
     Nis,
     /// Output: measurement rows skipped so far (non-finite inputs).
     SkippedMeasurements,
-    /// Output: false once the filter has failed.
+    /// Output: measurement rows rejected by the gate so far.
+    RejectedMeasurements,
+    /// Output: measurement row `j`'s channel is faulty.
+    ChannelFault(usize),
+    /// Output: the filter is consistent, not lost, and has not failed.
     FilterHealthy,
 }
 

@@ -6,8 +6,8 @@
 //!   accelerations (a seeded sum of sines, a few samples missing) through the
 //!   FMU as a master drives it (set the inputs of t, read, step, read); the
 //!   read after the inputs equals the same SRCKF built here from the
-//!   estimator crate after its update at t, the read after the step its
-//!   prediction to t + dt, bit for bit.
+//!   estimator crate (behind the same `Supervisor`) after its update at t,
+//!   the read after the step its prediction to t + dt, bit for bit.
 //! * `communication_steps_of_1_and_10_ms_follow_the_timing_rules`: at a 5 ms
 //!   sample time, every read of a 1 ms and a 10 ms master equals the
 //!   library's filter run by the rules of `fmu/src/timing.rs`, bit for bit.
@@ -28,7 +28,10 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear};
-use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
+use estimator::{
+    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, Supervisor, SupervisorSettings,
+    UnscentedParams,
+};
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
 use fmi::traits::{FmiImport, FmiInstance, FmiStatus};
@@ -296,6 +299,7 @@ fn outputs_equal_the_library_run_in_process() {
     fmu.initialise(&setup, SAMPLES as f64 * dt);
 
     let mut reference = setup.reference_filter();
+    let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).unwrap();
     for (k, zk) in z.iter().enumerate() {
         let t = k as f64 * dt;
         if k > 0 {
@@ -306,21 +310,27 @@ fn outputs_equal_the_library_run_in_process() {
             assert_eq!(bits(&[after_step]), bits(&[expected]), "after the step to sample {k}");
         }
         fmu.set_inputs(*zk);
-        let nis = reference.update(zk).unwrap().nis();
+        let nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
+        supervisor.commit(|_| {});
         assert_eq!(bits(&[fmu.read()]), bits(&[expected_outputs(reference.as_ref(), nis)]), "at sample {k}");
         if k < SAMPLES {
             fmu.do_step(t, dt);
         }
     }
 
+    // The counts and flags are the supervisor's. (These sums of sines are no
+    // trajectory of the chain: the filter is rightly found inconsistent.)
     let missing = z.iter().filter(|zk| zk.iter().any(|v| v.is_nan())).count();
-    let (skipped, healthy) = (fmu.vr["skipped_measurements"], fmu.vr["filter_healthy"]);
-    let mut count = [0];
-    Common::get_integer(&mut fmu.instance, &[skipped], &mut count).expect("fmi2GetInteger");
-    assert_eq!(count[0] as usize, missing, "skipped_measurements");
-    let mut ok = [0];
-    Common::get_boolean(&mut fmu.instance, &[healthy], &mut ok).expect("fmi2GetBoolean");
-    assert_eq!(ok[0], 1, "filter_healthy");
+    let names = ["skipped_measurements", "rejected_measurements"];
+    let mut counts = [0; 2];
+    Common::get_integer(&mut fmu.instance, &names.map(|n| fmu.vr[n]), &mut counts).expect("fmi2GetInteger");
+    assert_eq!(counts, [missing as i32, supervisor.rejected() as i32], "{names:?}");
+    let flags = ["filter_healthy", "z1_ddot_fault", "z2_ddot_fault"];
+    let mut got = [0; 3];
+    Common::get_boolean(&mut fmu.instance, &flags.map(|n| fmu.vr[n]), &mut got).expect("fmi2GetBoolean");
+    let channels = supervisor.channels();
+    let expected = [supervisor.healthy(), channels[0].faulty, channels[1].faulty].map(i32::from);
+    assert_eq!(got, expected, "{flags:?}");
     let last = fmu.instance.last_successful_time().expect("fmi2GetRealStatus");
     assert!((last - SAMPLES as f64 * dt).abs() < 1e-9, "last successful time {last}");
     // A step past the stop time is refused (and the instance still answers).
@@ -345,6 +355,7 @@ fn check_master(h: f64, duration: f64) {
     let mut fmu = Fmu::new(&import, &format!("master-{h}"));
     fmu.initialise(&setup, duration);
     let mut reference = setup.reference_filter();
+    let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).unwrap();
     let steps = (duration / h).round() as usize;
     let mut k = 0; // the reference's sample
     let on_grid = |t: f64| ((t / ts).round() * ts - t).abs() < 1e-9;
@@ -364,7 +375,8 @@ fn check_master(h: f64, duration: f64) {
         let z = signal(t);
         fmu.set_inputs(z);
         if on_grid(t) {
-            reference.update(&z).unwrap();
+            supervisor.gate(reference.as_mut(), &z).unwrap();
+            supervisor.commit(|_| {});
         }
         assert_eq!(bits(&[fmu.read()]), bits(&[expected_at(reference.as_ref(), t, k)]), "h {h}: read at t = {t}");
         if j == steps {

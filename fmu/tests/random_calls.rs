@@ -1358,9 +1358,14 @@ fn outputs_of(calls: &[Call], kind: i32, capture: bool, callbacks: &Fmi2Callback
                 Call::Read => {
                     let mut out = vec![0.0; outputs.len()];
                     assert_eq!(fmu::fmi2GetReal(c, outputs.as_ptr(), outputs.len(), out.as_mut_ptr()), Fmi2Status::Ok);
-                    let mut skipped = 0;
-                    assert_eq!(fmu::fmi2GetInteger(c, &vr("skipped_measurements"), 1, &mut skipped), Fmi2Status::Ok);
-                    seen.extend(out.iter().map(|x| x.to_bits()).chain([skipped as u64]));
+                    let counts = [vr("skipped_measurements"), vr("rejected_measurements")];
+                    let mut count = [0; 2];
+                    assert_eq!(fmu::fmi2GetInteger(c, counts.as_ptr(), 2, count.as_mut_ptr()), Fmi2Status::Ok);
+                    let flags = [vr("filter_healthy"), vr("z1_ddot_fault"), vr("z2_ddot_fault")];
+                    let mut flag = [0; 3];
+                    assert_eq!(fmu::fmi2GetBoolean(c, flags.as_ptr(), 3, flag.as_mut_ptr()), Fmi2Status::Ok);
+                    let words = count.iter().chain(&flag).map(|&v| v as u64);
+                    seen.extend(out.iter().map(|x| x.to_bits()).chain(words));
                 }
                 Call::DoStep(h) => {
                     assert_eq!(fmu::fmi2DoStep(c, time, h, 1), Fmi2Status::Ok);

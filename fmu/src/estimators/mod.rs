@@ -5,7 +5,7 @@
 
 mod s1_load;
 
-use estimator::{FilterKind, Noise, StateEstimator, UnscentedParams};
+use estimator::{FilterKind, Noise, StateEstimator, SupervisorSettings, UnscentedParams};
 
 use crate::variables::{Causality, EnumerationType, Kind, Parameters, Role, Variability, Variable};
 
@@ -153,6 +153,44 @@ fn common_variables() -> Vec<Variable> {
                 "which time the inputs set before fmi2DoStep(t, h) are measured at: 1 t (default), 2 t + h (Gauss-Seidel masters)",
             )
         },
+        Variable::parameter(
+            "gate_probability",
+            "1",
+            SupervisorSettings::default().gate_probability,
+            "innovation gate: a measurement row of a consistent filter is rejected with probability 1 - this (1: no gate)",
+        )
+        .bounded(Some(0.5), Some(1.0)),
+        integer_parameter(
+            "fault_after",
+            SupervisorSettings::default().fault_after,
+            1,
+            "consecutive samples rejected, stuck or missing that make an input faulty",
+        ),
+        integer_parameter(
+            "reacquire_after",
+            SupervisorSettings::default().reacquire_after,
+            1,
+            "consecutive gate failures of an input before the filter re-acquires (inflates its covariance)",
+        ),
+        integer_parameter(
+            "stuck_after",
+            SupervisorSettings::default().stuck_after,
+            2,
+            "consecutive bit-identical values that make an input stuck (left out until it changes)",
+        ),
+        integer_parameter(
+            "consistency_window",
+            SupervisorSettings::default().window as u32,
+            1,
+            "samples over which the normalised innovations are summed for filter_healthy",
+        ),
+        Variable::parameter(
+            "consistency_margin",
+            "1",
+            SupervisorSettings::default().consistency_margin,
+            "how far above its chi-square bound the windowed innovation may go before the filter is inconsistent",
+        )
+        .bounded(Some(1.0), None),
         Variable::parameter("ukf_alpha", "1", 1e-3, "UKF spread alpha (UKF only)").bounded(Some(1e-9), None),
         Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
         Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),
@@ -165,16 +203,48 @@ fn common_variables() -> Vec<Variable> {
                 "skipped_measurements",
                 "1",
                 Role::SkippedMeasurements,
-                "measurement rows left out so far because the input was NaN or infinite",
+                "measurement rows left out so far because the input was NaN, infinite or never set",
+            )
+        },
+        Variable {
+            kind: Kind::Integer,
+            variability: Variability::Discrete,
+            unit: None,
+            ..Variable::output(
+                "rejected_measurements",
+                "1",
+                Role::RejectedMeasurements,
+                "measurement rows left out so far by the innovation gate",
             )
         },
         Variable {
             kind: Kind::Boolean,
             variability: Variability::Discrete,
             unit: None,
-            ..Variable::output("filter_healthy", "1", Role::FilterHealthy, "false once the filter has failed")
+            ..Variable::output(
+                "filter_healthy",
+                "1",
+                Role::FilterHealthy,
+                "false while the filter is inconsistent (its windowed innovations exceed their bound) or lost (every input rejected), and once it has failed",
+            )
         },
     ]
+}
+
+/// A fixed Integer parameter with a lower bound.
+fn integer_parameter(name: &'static str, start: u32, min: u32, description: &'static str) -> Variable {
+    Variable { kind: Kind::Integer, unit: None, ..Variable::parameter(name, "1", f64::from(start), description) }
+        .bounded(Some(f64::from(min)), Some(1e6))
+}
+
+/// The fault flag output of measurement row `row`, named `<input>_fault`.
+pub(crate) fn fault_flag(name: &'static str, row: usize, description: &'static str) -> Variable {
+    Variable {
+        kind: Kind::Boolean,
+        variability: Variability::Discrete,
+        unit: None,
+        ..Variable::output(name, "1", Role::ChannelFault(row), description)
+    }
 }
 
 /// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from two FNV-1a hashes of the interface.
@@ -219,6 +289,9 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
     for row in 0..m {
         if !vars.iter().any(|v| v.role == Role::Measurement(row)) {
             return Err(format!("measurement row {row} has no input"));
+        }
+        if !vars.iter().any(|v| v.role == Role::ChannelFault(row)) {
+            return Err(format!("measurement row {row} has no fault flag output"));
         }
     }
     Ok(())

@@ -27,6 +27,16 @@ pub(super) fn descriptor() -> Descriptor {
     let mut v = vec![
         Variable::measurement("z1_ddot", "m/s2", 0, "measured acceleration of mass 1 (NaN: missing)"),
         Variable::measurement("z2_ddot", "m/s2", 1, "measured acceleration of mass 2 (NaN: missing)"),
+        super::fault_flag(
+            "z1_ddot_fault",
+            0,
+            "z1_ddot is faulty: rejected by the gate, stuck or missing for fault_after samples in a row",
+        ),
+        super::fault_flag(
+            "z2_ddot_fault",
+            1,
+            "z2_ddot is faulty: rejected by the gate, stuck or missing for fault_after samples in a row",
+        ),
         Variable::output("F", "N", Role::Estimate(2), "estimated load on mass 2"),
         Variable::output("F_std", "N", Role::EstimateStd(2), "standard deviation of the estimated load"),
     ];
