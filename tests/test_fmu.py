@@ -938,3 +938,29 @@ def test_a_true_load_step_is_followed_and_the_gate_can_be_turned_off(new_slave, 
     # 0.1 s after the step both estimates carry it (an extra 100 N).
     k = 400 + 20
     assert abs(gated.f[k] - open_.f[k]) < 5.0, (gated.f[k], open_.f[k])
+
+
+def test_ten_samples_of_a_million_on_both_inputs_change_nothing_silently(new_slave, s1_table):
+    """The glitch that once gave a load of -7.6e6 N with F_std 0.08 N and
+    filter_healthy true: ten samples of ±1e6 m/s² (each a little different,
+    so not stuck) on both inputs. Every one is rejected (none is used even
+    when the filter re-acquires: they are beyond implausible_sigmas),
+    filter_healthy is false while every input is rejected, both inputs are
+    flagged, and the load stays within 4σ of the truth throughout."""
+    z = s1_table.z.copy()
+    z[300:310] = 1e6 * np.array([1.0, -1.0]) * (1.0 + 0.01 * np.arange(10))[:, None]
+    slave = new_slave()
+    slave.initialize(**sensor(s1_table))
+    rows = []
+    for zk in z:
+        slave.inputs(zk)
+        f, f_std = slave.get("F", "F_std")
+        flags = slave.fmu.getBoolean([slave.vr[n] for n in ("filter_healthy", "z1_ddot_fault", "z2_ddot_fault")])
+        rows.append([f, f_std, *flags])
+        slave.step()
+    out = np.array(rows)
+    after = s1_table.time >= 1.0
+    assert np.max(np.abs(out[:, 0] - s1_table.load)[after] / out[after, 1]) < 4.0
+    assert slave.fmu.getInteger([slave.vr["rejected_measurements"]])[0] == 20
+    assert not out[300:310, 2].any() and out[320:, 2].all()
+    assert out[302:310, 3].all() and out[302:310, 4].all() and not out[320:, 3:].any()

@@ -10,6 +10,10 @@
 //!   that update exactly like a missing one (the update is redone without it
 //!   from the belief before it); when only the vector test fails, the row
 //!   with the largest normalised innovation goes.
+//! * **Implausible rows.** A row more than
+//!   [`SupervisorSettings::implausible_sigmas`] σ of its innovation away (a
+//!   saturated ADC, a cable fault) is left out and never used, not even to
+//!   re-acquire: no state the model can reach explains it.
 //! * **Stuck channels.** A live sensor has noise: a channel that repeats
 //!   its value bit for bit [`SupervisorSettings::stuck_after`] times in a row
 //!   is stuck, and left out (as rejected) until its value changes.
@@ -70,6 +74,10 @@ pub struct SupervisorSettings {
     pub reacquire_after: u32,
     /// Consecutive bit-identical values that make a channel stuck. Default 5.
     pub stuck_after: u32,
+    /// A row this many σ of its innovation away is never used, not even to
+    /// re-acquire: no state the model can reach explains it (a 100 N step of
+    /// the S1 load is about 250σ). Default 1e5.
+    pub implausible_sigmas: f64,
     /// Samples in the consistency window. Default 200.
     pub window: usize,
     /// The consistency test's false-alarm probability per sample for a
@@ -87,6 +95,7 @@ impl Default for SupervisorSettings {
             fault_after: 3,
             reacquire_after: 10,
             stuck_after: 5,
+            implausible_sigmas: 1e5,
             window: 200,
             consistency_probability: 1e-6,
             consistency_margin: 3.0,
@@ -106,6 +115,9 @@ impl SupervisorSettings {
         }
         if !(self.consistency_probability > 0.0 && self.consistency_probability < 1.0) {
             return bad(format!("consistency probability must be in (0, 1), got {}", self.consistency_probability));
+        }
+        if !(self.implausible_sigmas > 0.0) {
+            return bad(format!("implausible_sigmas must be positive, got {}", self.implausible_sigmas));
         }
         if !(self.consistency_margin >= 1.0 && self.consistency_margin.is_finite()) {
             return bad(format!("consistency margin must be at least 1, got {}", self.consistency_margin));
@@ -185,6 +197,7 @@ pub struct FaultChange {
 pub struct Supervisor {
     settings: SupervisorSettings,
     row_threshold: f64,
+    implausible_ratio: f64,
     /// χ²(k) gate quantiles, `k = 1 … m` at index `k`.
     vector_threshold: Vec<f64>,
     channels: Vec<Channel>,
@@ -222,6 +235,7 @@ impl Supervisor {
         Ok(Self {
             settings,
             row_threshold: quantile(1),
+            implausible_ratio: settings.implausible_sigmas * settings.implausible_sigmas,
             vector_threshold: (0..=m).map(|k| if k == 0 { f64::INFINITY } else { quantile(k) }).collect(),
             channels: vec![Channel { since_reacquisition: u32::MAX, ..Channel::default() }; m],
             all_rejected_run: 0,
@@ -284,7 +298,9 @@ impl Supervisor {
         self.pending.clipped_ratios = 0.0;
         self.pending.gated_rows = 0;
         filter.snapshot_into(&mut self.before);
-        let mut first = true;
+        // `first`: no row was left out by the gate yet (implausible ones aside),
+        // so a re-acquisition may still be decided; the ratios are taken once.
+        let (mut first, mut ratios_taken) = (true, false);
         loop {
             let innovation = filter.update(&self.z_gated)?;
             let (dof, nis) = (innovation.rows_used(), innovation.nis());
@@ -301,7 +317,8 @@ impl Supervisor {
                     .fold((rows[0], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
             let failing = rows.iter().filter(|&&r| ratio(r) > self.row_threshold).count();
             let vector_fails = nis > self.vector_threshold[dof];
-            if first {
+            if !ratios_taken {
+                ratios_taken = true;
                 self.pending.worst_ratio = worst;
                 let clip = self.row_threshold.min(1e6);
                 self.pending.clipped_ratios = rows.iter().map(|&r| ratio(r).min(clip)).sum();
@@ -309,6 +326,19 @@ impl Supervisor {
             }
             if failing == 0 && !vector_fails {
                 break;
+            }
+            // No state the model reaches explains these: never used, not even to re-acquire.
+            let implausible = self.implausible_ratio;
+            if rows.iter().any(|&r| !(ratio(r) <= implausible)) {
+                let (z_gated, outcome) = (&mut self.z_gated, &mut self.pending.rows);
+                for &r in rows {
+                    if !(ratio(r) <= implausible) {
+                        z_gated[r] = f64::NAN;
+                        outcome[r] = RowOutcome::Rejected;
+                    }
+                }
+                filter.restore(&self.before)?;
+                continue;
             }
             let threshold = self.row_threshold;
             let cooled = self.since_reacquisition >= self.settings.reacquire_after;
@@ -388,6 +418,13 @@ impl Supervisor {
     pub fn faulty_with_pending(&self, channel: usize) -> bool {
         let bad = self.pending.rows[channel] != RowOutcome::Used;
         bad && self.channels[channel].bad_run.saturating_add(1) >= self.settings.fault_after
+    }
+
+    /// [`Supervisor::healthy`] as it will be once the pending outcome is
+    /// committed, as far as being lost goes (the window moves at the commit).
+    pub fn healthy_with_pending(&self) -> bool {
+        let available = self.pending.rows.iter().any(|r| *r != RowOutcome::Missing);
+        self.consistent && !(available && self.pending.dof == 0)
     }
 
     /// Gate rejections so far plus those of the pending outcome.

@@ -509,8 +509,8 @@ pub(crate) fn build_estimation(descriptor: &Descriptor, values: &[f64], start_ti
         reacquire_after: count("reacquire_after")?,
         stuck_after: count("stuck_after")?,
         window: count("consistency_window")? as usize,
-        consistency_probability: SupervisorSettings::default().consistency_probability,
         consistency_margin: p.get("consistency_margin")?,
+        ..SupervisorSettings::default()
     };
     let supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;
     let filter = build_filter(descriptor, values, start_time)?;

@@ -351,7 +351,7 @@ impl Estimation {
                         *flag = self.supervisor.faulty_with_pending(c);
                     }
                     let rejected = self.supervisor.rejected_with_pending();
-                    let healthy = self.supervisor.healthy();
+                    let healthy = self.supervisor.healthy_with_pending();
                     Ok(Reading { belief: self.reader.as_ref(), nis, skipped, rejected, faulty: &self.faulty, healthy })
                 }
                 _ => Ok(self.committed_reading(false)),
