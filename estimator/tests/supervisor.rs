@@ -211,3 +211,49 @@ fn settings_out_of_range_are_refused_with_the_reason() {
     f.predict(&case.inputs[0], 0.01).unwrap();
     assert_eq!(s.gate(f.as_mut(), &z).unwrap().rows, vec![RowOutcome::Used; 3], "probability 1: no gate");
 }
+
+#[test]
+fn a_saved_memory_continues_exactly_and_a_corrupt_one_is_refused() {
+    // What an FMU state carries: save after 300 samples with faults along the
+    // way, load into a fresh supervisor, and both go on bit for bit.
+    let case = linear_case(600, 18);
+    let zs: Vec<Vec<f64>> = case
+        .measurements
+        .iter()
+        .enumerate()
+        .map(|(k, z)| {
+            let mut z = z.clone();
+            if k % 23 == 0 {
+                z[1] += 300.0;
+            }
+            if (250..320).contains(&k) {
+                z[2] = 1.5;
+            }
+            z
+        })
+        .collect();
+    for kind in FilterKind::ALL {
+        let (mut f, mut s) = (filter(kind, &case, 1.0), supervisor());
+        for (u, z) in case.inputs[..300].iter().zip(&zs) {
+            step(f.as_mut(), &mut s, u, z);
+        }
+        let mut words = Vec::new();
+        s.save(&mut words);
+        let (mut g, mut t) = (filter(kind, &case, 1.0), supervisor());
+        t.load(&words).unwrap();
+        g.restore(&f.snapshot()).unwrap();
+        for (u, z) in case.inputs[300..].iter().zip(&zs[300..]) {
+            let a = step(f.as_mut(), &mut s, u, z);
+            let b = step(g.as_mut(), &mut t, u, z);
+            assert_eq!(a, b, "{kind}");
+            assert_eq!(bits(f.as_ref()), bits(g.as_ref()), "{kind}");
+            assert_eq!((s.healthy(), s.rejected(), s.channels()), (t.healthy(), t.rejected(), t.channels()));
+        }
+        let mut fresh = supervisor();
+        assert!(fresh.load(&words[1..]).is_err(), "truncated");
+        let mut flag = words.clone();
+        flag[2] = 7; // channel 0's fault flag
+        assert!(fresh.load(&flag).is_err(), "a flag of 7");
+        assert_eq!(fresh.rejected(), 0, "a refused memory changes nothing");
+    }
+}

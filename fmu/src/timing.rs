@@ -27,6 +27,10 @@
 //!    measurements up to `t` once an input was set at `t`, and predicted from
 //!    the earlier ones before that.
 //!
+//! Every update, at a step or for a read, goes through the instance's
+//! `estimator::Supervisor` (gate, fault flags, re-acquisition, consistency);
+//! a read only shows its outcome, the step commits it.
+//!
 //! With [`InputTiming::AtStepEnd`] (masters that step the plant first and
 //! hand its outputs of `t + h` over before our step, Gauss–Seidel) the inputs
 //! set before `fmi2DoStep(t, h)` are the measurement of `t + h`: the step
