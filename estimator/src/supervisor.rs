@@ -355,10 +355,17 @@ impl Supervisor {
             if let (true, Some(trigger)) = (first, persistent) {
                 // A channel has disagreed with the filter again and again: re-acquire.
                 filter.restore(&self.before)?;
-                filter.scale_covariance((4.0 * worst / threshold).clamp(1.0, 1e4))?;
-                let innovation = filter.update(&self.z_gated)?;
-                self.pending.nis = innovation.nis();
-                self.pending.dof = innovation.rows_used();
+                let reacquired = filter
+                    .scale_covariance((4.0 * worst / threshold).clamp(1.0, 1e4))
+                    .and_then(|()| filter.update(&self.z_gated).map(|i| (i.nis(), i.rows_used())));
+                match reacquired {
+                    Ok((nis, dof)) => (self.pending.nis, self.pending.dof) = (nis, dof),
+                    Err(e) => {
+                        // The inflated covariance must not outlive a failed update.
+                        filter.restore(&self.before)?;
+                        return Err(e);
+                    }
+                }
                 self.pending.reacquired = Some(trigger);
                 break;
             }
@@ -391,7 +398,7 @@ impl Supervisor {
         self.reacquisitions
     }
 
-    /// The windowed NIS is within its bound (see the module documentation).
+    /// The windowed normalised innovations are within their bound (see the module documentation).
     pub fn consistent(&self) -> bool {
         self.consistent
     }
@@ -407,8 +414,8 @@ impl Supervisor {
         self.consistent && !self.lost()
     }
 
-    /// The mean NIS per degree of freedom over the window (1 for a consistent
-    /// filter; NaN before any row was used).
+    /// The mean normalised innovation per row over the window, each clipped
+    /// at the gate (about 1 for a consistent filter; NaN before any row).
     pub fn windowed_nis(&self) -> f64 {
         self.window_nis
     }
