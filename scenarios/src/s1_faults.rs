@@ -21,6 +21,12 @@ pub struct Args {
     /// Seed of the load and the noise.
     #[arg(long, default_value_t = Settings::default().seed)]
     pub seed: u64,
+    /// Accelerometer noise as a fraction of each channel's RMS.
+    #[arg(long, default_value_t = Settings::default().noise_fraction)]
+    pub noise: f64,
+    /// Only these faults (comma-separated names as printed, e.g. healthy,spikes); all by default.
+    #[arg(long, value_delimiter = ',')]
+    pub faults: Vec<String>,
     /// Simulated duration in seconds (the faults start at 20 s).
     #[arg(long, default_value_t = 60.0)]
     pub duration: f64,
@@ -44,12 +50,20 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
 
 /// Runs the subcommand.
 pub fn run_command(args: &Args) -> anyhow::Result<()> {
-    let settings = Settings { seed: args.seed, duration: args.duration, ..Settings::default() };
+    let settings =
+        Settings { seed: args.seed, duration: args.duration, noise_fraction: args.noise, ..Settings::default() };
+    for name in &args.faults {
+        if !Fault::ALL.iter().any(|f| f.to_string() == *name) {
+            let names: Vec<String> = Fault::ALL.iter().map(Fault::to_string).collect();
+            anyhow::bail!("unknown fault '{name}'; expected one of {}", names.join(", "));
+        }
+    }
     settings.validate().map_err(anyhow::Error::msg)?;
     let supervision = SupervisorSettings { gate_probability: args.gate, ..SupervisorSettings::default() };
     supervision.validate()?;
     let jobs: Vec<(Fault, FilterKind)> = Fault::ALL
         .iter()
+        .filter(|f| args.faults.is_empty() || args.faults.contains(&f.to_string()))
         .flat_map(|&f| FilterKind::ALL.iter().map(move |&k| (f, k)))
         .enumerate()
         .filter(|(j, _)| j % args.shard.1 == args.shard.0 - 1)
@@ -78,10 +92,11 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "S1 {} with faults from 20 s ({} s, seed {}, gate probability 1 − {:.0e}); supervisor defaults of estimator::SupervisorSettings",
+        "S1 {} with faults from 20 s ({} s, seed {}, noise {:.1} % of RMS, gate probability 1 − {:.0e}); supervisor defaults of estimator::SupervisorSettings",
         args.case,
         args.duration,
         args.seed,
+        100.0 * args.noise,
         1.0 - args.gate
     );
     let _ = writeln!(
