@@ -27,6 +27,7 @@
 //! assert!(load.is_finite() && sigma > 0.0);
 //! ```
 
+mod adaptive_noise;
 mod chi_square;
 mod error;
 mod filter;
@@ -40,6 +41,7 @@ mod supervisor;
 
 pub mod models;
 
+pub use adaptive_noise::SageHusa;
 pub use error::{FilterError, Stage};
 pub use filter::{
     build_filter, CholeskyRoot, CovarianceRoot, CubatureKalman, ExtendedKalman, FilterKind, Innovation,

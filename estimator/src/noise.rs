@@ -68,6 +68,27 @@ impl Noise {
         &self.r_sqrt_t
     }
 
+    /// Replaces the variances of a diagonal `R` in place (no allocation: an
+    /// adaptive estimate of the sensor noise sets them every sample). Fails,
+    /// changing nothing, if `R` has off-diagonal entries or a variance is
+    /// negative or not finite.
+    pub fn set_r_diagonal(&mut self, variances: &[f64]) -> Result<(), FilterError> {
+        crate::error::check_len("measurement variances", self.r.nrows(), variances.len())?;
+        let m = self.r.nrows();
+        if (0..m).any(|i| (0..m).any(|j| i != j && self.r[(i, j)] != 0.0)) {
+            return Err(FilterError::InvalidSetting("only a diagonal R can take new variances in place".into()));
+        }
+        if let Some(v) = variances.iter().find(|v| !(**v >= 0.0 && v.is_finite())) {
+            return Err(FilterError::InvalidSetting(format!("a measurement variance must be finite and ≥ 0, got {v}")));
+        }
+        for (i, &v) in variances.iter().enumerate() {
+            self.r[(i, i)] = v;
+            self.r_sqrt[(i, i)] = v.sqrt();
+            self.r_sqrt_t[(i, i)] = v.sqrt();
+        }
+        Ok(())
+    }
+
     /// The state dimension `Q` is for.
     pub fn state_dim(&self) -> usize {
         self.q.nrows()

@@ -163,6 +163,10 @@ macro_rules! core_accessors {
             self.core.noise = noise;
             Ok(())
         }
+
+        fn set_measurement_variances(&mut self, variances: &[f64]) -> Result<(), crate::error::FilterError> {
+            self.core.noise.set_r_diagonal(variances)
+        }
     };
 }
 pub(crate) use core_accessors;

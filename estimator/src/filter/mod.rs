@@ -74,6 +74,9 @@ pub trait StateEstimator {
     fn noise(&self) -> &Noise;
     /// Replaces `Q` and `R` (tuning between steps).
     fn set_noise(&mut self, noise: Noise) -> Result<(), FilterError>;
+    /// Sets the variances of a diagonal `R` in place, without allocating
+    /// ([`Noise::set_r_diagonal`]).
+    fn set_measurement_variances(&mut self, variances: &[f64]) -> Result<(), FilterError>;
     /// Restarts from `prior` at time `t0`, keeping the buffers.
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
     /// Scales the covariance: `P ← factor·P` (`factor ≥ 1`, finite), to open the
