@@ -116,7 +116,7 @@ impl SupervisorSettings {
         if !(self.consistency_probability > 0.0 && self.consistency_probability < 1.0) {
             return bad(format!("consistency probability must be in (0, 1), got {}", self.consistency_probability));
         }
-        if !(self.implausible_sigmas > 0.0) {
+        if self.implausible_sigmas <= 0.0 || self.implausible_sigmas.is_nan() {
             return bad(format!("implausible_sigmas must be positive, got {}", self.implausible_sigmas));
         }
         if !(self.consistency_margin >= 1.0 && self.consistency_margin.is_finite()) {
@@ -328,11 +328,12 @@ impl Supervisor {
                 break;
             }
             // No state the model reaches explains these: never used, not even to re-acquire.
-            let implausible = self.implausible_ratio;
-            if rows.iter().any(|&r| !(ratio(r) <= implausible)) {
+            let implausible_ratio = self.implausible_ratio;
+            let implausible = |r: usize| ratio(r) > implausible_ratio || ratio(r).is_nan();
+            if rows.iter().any(|&r| implausible(r)) {
                 let (z_gated, outcome) = (&mut self.z_gated, &mut self.pending.rows);
                 for &r in rows {
-                    if !(ratio(r) <= implausible) {
+                    if implausible(r) {
                         z_gated[r] = f64::NAN;
                         outcome[r] = RowOutcome::Rejected;
                     }
