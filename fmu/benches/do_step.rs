@@ -13,7 +13,8 @@
 //!   twin filter), `fmi2DoStep` (which takes that update over by a copy and
 //!   predicts);
 //! * `do_step/library`: the SRCKF built from the estimator crate with the
-//!   FMU's default parameters: `update(&z)`, `predict(&[], dt)`, read `F`.
+//!   FMU's default parameters, behind the same supervisor: gate and commit
+//!   the update with `z`, `predict(&[], dt)`, read `F`.
 //!
 //! Both run on the same seeded accelerations (a sum of sines), cycled; the FMU
 //! has no stop time, so neither ever resets. Every status is checked.
@@ -37,7 +38,10 @@ use std::time::{Duration, Instant};
 
 use criterion::Criterion;
 use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear};
-use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
+use estimator::{
+    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, Supervisor, SupervisorSettings,
+    UnscentedParams,
+};
 use kalfmu_fmu as fmu;
 use kalfmu_fmu::estimators::Descriptor;
 use kalfmu_fmu::ffi::{Fmi2CallbackFunctions, Fmi2CallbackLogger, Fmi2Component, Fmi2Status, FMI2_COSIMULATION};
@@ -188,10 +192,12 @@ fn main() {
 
     let mut filter = library_filter();
     let mut k = 0usize;
+    let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).expect("the supervisor");
     group.bench_function("library", |b| {
         b.iter(|| {
             let zk = &z[k % SAMPLES];
-            filter.update(black_box(zk)).expect("update");
+            supervisor.gate(filter.as_mut(), black_box(zk)).expect("update");
+            supervisor.commit(|_| {});
             filter.predict(&[], dt).expect("predict");
             k += 1;
             black_box(filter.mean()[2])
@@ -215,6 +221,7 @@ fn interleaved(
     let name = CString::new("interleaved").expect("a name");
     let c = fmu_instance(&name, guid, callbacks);
     let mut filter = library_filter();
+    let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).expect("the supervisor");
     let (mut fmu_times, mut library_times) = (Vec::with_capacity(BLOCKS), Vec::with_capacity(BLOCKS));
     let mut out = [0.0];
     for block in 0..=BLOCKS {
@@ -234,7 +241,8 @@ fn interleaved(
         let start = Instant::now();
         for j in 0..BLOCK {
             let k = block * BLOCK + j;
-            filter.update(black_box(&z[k % SAMPLES])).expect("update");
+            supervisor.gate(filter.as_mut(), black_box(&z[k % SAMPLES])).expect("update");
+            supervisor.commit(|_| {});
             filter.predict(&[], dt).expect("predict");
             black_box(filter.mean()[2]);
         }
