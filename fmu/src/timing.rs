@@ -255,7 +255,7 @@ impl Estimation {
         self.sample_instant(self.samples)
     }
 
-    /// Half-open tolerance of "at a sample instant": a master's clock may
+    /// The tolerance of "at a sample instant": a master's clock may
     /// carry rounding, never a microsecond at a millisecond sample time.
     fn tolerance(&self) -> f64 {
         1e-6 * self.sample_time
