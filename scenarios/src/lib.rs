@@ -3,6 +3,7 @@
 
 pub mod export;
 pub mod fmu_driver;
+pub mod jobs;
 pub mod replay;
 pub mod reproduce;
 pub mod s1;

@@ -5,11 +5,11 @@
 //! runs every N-th one (from the K-th) for a batch system.
 
 use std::fmt::Write as _;
-use std::sync::Mutex;
 
 use estimator::{FilterKind, SupervisorSettings};
 
-use crate::s1::faults::{inject, run, Fault, FaultRun};
+use crate::jobs::{self, Shard};
+use crate::s1::faults::{inject, run, Fault};
 use crate::s1::{Case, Settings};
 
 /// Command-line arguments of `scenarios s1-faults`.
@@ -34,18 +34,8 @@ pub struct Args {
     #[arg(long, default_value_t = SupervisorSettings::default().gate_probability)]
     pub gate: f64,
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
-    #[arg(long, value_parser = parse_shard, default_value = "1/1")]
-    pub shard: (usize, usize),
-}
-
-fn parse_shard(s: &str) -> Result<(usize, usize), String> {
-    let (k, n) = s.split_once('/').ok_or("expected K/N, e.g. 1/2")?;
-    let (k, n): (usize, usize) =
-        (k.parse().map_err(|_| "K is not a number")?, n.parse().map_err(|_| "N is not a number")?);
-    if n == 0 || k == 0 || k > n {
-        return Err(format!("shard {k}/{n}: need 1 ≤ K ≤ N"));
-    }
-    Ok((k, n))
+    #[arg(long, default_value = "1/1")]
+    pub shard: Shard,
 }
 
 /// Runs the subcommand.
@@ -65,30 +55,11 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         .iter()
         .filter(|f| args.faults.is_empty() || args.faults.contains(&f.to_string()))
         .flat_map(|&f| FilterKind::ALL.iter().map(move |&k| (f, k)))
-        .enumerate()
-        .filter(|(j, _)| j % args.shard.1 == args.shard.0 - 1)
-        .map(|(_, job)| job)
         .collect();
-    let results: Mutex<Vec<(usize, FaultRun)>> = Mutex::new(Vec::new());
-    let next = Mutex::new(0usize);
-    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(jobs.len().max(1));
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(|| loop {
-                let j = {
-                    let mut next = next.lock().expect("the job counter");
-                    *next += 1;
-                    *next - 1
-                };
-                let Some(&(fault, kind)) = jobs.get(j) else { break };
-                let injected = inject(fault, &args.case, &settings);
-                let outcome = run(kind, &injected, &args.case, &settings, supervision);
-                results.lock().expect("the results").push((j, outcome));
-            });
-        }
+    let results = jobs::run(&jobs, args.shard, |&(fault, kind)| {
+        let injected = inject(fault, &args.case, &settings);
+        run(kind, &injected, &args.case, &settings, supervision)
     });
-    let mut results = results.into_inner().expect("the results");
-    results.sort_by_key(|(j, _)| *j);
     let mut out = String::new();
     let _ = writeln!(
         out,

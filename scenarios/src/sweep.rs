@@ -1,10 +1,13 @@
 //! `scenarios s1-sweep`: the S1 SRCKF over many seeds and noise levels, to
-//! show that the published-case figures are not a lucky draw.
+//! show that the published-case figures are not a lucky draw. The runs go to
+//! all cores; `--shard K/N` runs a share of them (its table then covers the
+//! seeds of that share only).
 
 use std::fmt::Write as _;
 
 use estimator::FilterKind;
 
+use crate::jobs::{self, Shard};
 use crate::s1::{self, Case, Settings};
 
 /// Command-line arguments of `scenarios s1-sweep`.
@@ -22,6 +25,9 @@ pub struct Args {
     /// The filter to sweep.
     #[arg(long, default_value = "SRCKF")]
     pub filter: FilterKind,
+    /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
+    #[arg(long, default_value = "1/1")]
+    pub shard: Shard,
 }
 
 /// Runs the sweep and prints, per case and noise level, the correlation over
@@ -35,22 +41,45 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     let _ =
         writeln!(out, "{:<19} {:>7} {:>9} {:>9} {:>6} {:>12}", "case", "noise", "min", "mean", "goal", "seeds ≥ goal");
+    let mut jobs = Vec::new();
+    for case in Case::ALL {
+        for &noise in &args.noise {
+            for seed in 1..=args.seeds {
+                let settings = Settings { seed, noise_fraction: noise, duration: args.duration, ..Settings::default() };
+                settings.validate().map_err(anyhow::Error::msg)?;
+                jobs.push((case, settings));
+            }
+        }
+    }
+    let runs = jobs::run(&jobs, args.shard, |(case, settings)| {
+        let (truth, measurements) = s1::simulate(case, settings);
+        s1::run_filter(args.filter, case, settings, &truth, &measurements)
+    });
     let mut failures = 0;
     for case in Case::ALL {
         for &noise in &args.noise {
             let mut corr = Vec::new();
-            for seed in 1..=args.seeds {
-                let settings = Settings { seed, noise_fraction: noise, duration: args.duration, ..Settings::default() };
-                settings.validate().map_err(anyhow::Error::msg)?;
-                let (truth, measurements) = s1::simulate(&case, &settings);
-                let run = s1::run_filter(args.filter, &case, &settings, &truth, &measurements);
-                match run.comparison {
-                    Some(c) => corr.push(c.correlation),
+            let mut seeds = 0;
+            for (j, run) in &runs {
+                let (c, settings) = &jobs[*j];
+                if *c != case || settings.noise_fraction != noise {
+                    continue;
+                }
+                seeds += 1;
+                match &run.comparison {
+                    Some(comparison) => corr.push(comparison.correlation),
                     None => {
                         failures += 1;
-                        eprintln!("{case} noise {noise} seed {seed}: {}", run.failure.unwrap_or_default());
+                        eprintln!(
+                            "{case} noise {noise} seed {}: {}",
+                            settings.seed,
+                            run.failure.clone().unwrap_or_default()
+                        );
                     }
                 }
+            }
+            if seeds == 0 {
+                continue;
             }
             let min = corr.iter().copied().fold(f64::INFINITY, f64::min);
             let mean = corr.iter().sum::<f64>() / corr.len().max(1) as f64;
@@ -65,7 +94,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 mean,
                 goal,
                 met,
-                args.seeds
+                seeds
             );
         }
     }
