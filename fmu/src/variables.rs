@@ -143,6 +143,37 @@ impl Variable {
         }
     }
 
+    /// A fixed Integer parameter in `[min, max]`.
+    pub fn integer_parameter(
+        name: &'static str,
+        start: u32,
+        (min, max): (u32, u32),
+        description: &'static str,
+    ) -> Self {
+        Self { kind: Kind::Integer, unit: None, ..Self::parameter(name, "1", f64::from(start), description) }
+            .bounded(Some(f64::from(min)), Some(f64::from(max)))
+    }
+
+    /// An Integer output that counts (discrete).
+    pub fn count(name: &'static str, role: Role, description: &'static str) -> Self {
+        Self {
+            kind: Kind::Integer,
+            variability: Variability::Discrete,
+            unit: None,
+            ..Self::output(name, "1", role, description)
+        }
+    }
+
+    /// A Boolean output (discrete).
+    pub fn flag(name: &'static str, role: Role, description: &'static str) -> Self {
+        Self {
+            kind: Kind::Boolean,
+            variability: Variability::Discrete,
+            unit: None,
+            ..Self::output(name, "1", role, description)
+        }
+    }
+
     /// With bounds.
     pub fn bounded(self, min: Option<f64>, max: Option<f64>) -> Self {
         Self { min, max, ..self }

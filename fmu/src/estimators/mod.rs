@@ -160,28 +160,28 @@ fn common_variables() -> Vec<Variable> {
             "innovation gate: a measurement row of a consistent filter is rejected with probability 1 - this (1: no gate)",
         )
         .bounded(Some(0.5), Some(1.0)),
-        integer_parameter(
+        Variable::integer_parameter(
             "fault_after",
             SupervisorSettings::default().fault_after,
-            1,
+            (1, 1_000_000),
             "consecutive samples rejected, stuck or missing that make an input faulty",
         ),
-        integer_parameter(
+        Variable::integer_parameter(
             "reacquire_after",
             SupervisorSettings::default().reacquire_after,
-            1,
+            (1, 1_000_000),
             "consecutive gate failures of an input before the filter re-acquires (inflates its covariance)",
         ),
-        integer_parameter(
+        Variable::integer_parameter(
             "stuck_after",
             SupervisorSettings::default().stuck_after,
-            2,
+            (2, 1_000_000),
             "consecutive bit-identical values that make an input stuck (left out until it changes)",
         ),
-        integer_parameter(
+        Variable::integer_parameter(
             "consistency_window",
             SupervisorSettings::default().window as u32,
-            1,
+            (1, 1_000_000),
             "samples over which the normalised innovations are summed for filter_healthy",
         ),
         Variable::parameter(
@@ -195,56 +195,22 @@ fn common_variables() -> Vec<Variable> {
         Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
         Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),
         Variable::output("nis", "1", Role::Nis, "normalised innovation squared of the last update"),
-        Variable {
-            kind: Kind::Integer,
-            variability: Variability::Discrete,
-            unit: None,
-            ..Variable::output(
-                "skipped_measurements",
-                "1",
-                Role::SkippedMeasurements,
-                "measurement rows left out so far because the input was NaN, infinite or never set",
-            )
-        },
-        Variable {
-            kind: Kind::Integer,
-            variability: Variability::Discrete,
-            unit: None,
-            ..Variable::output(
-                "rejected_measurements",
-                "1",
-                Role::RejectedMeasurements,
-                "measurement rows left out so far by the innovation gate",
-            )
-        },
-        Variable {
-            kind: Kind::Boolean,
-            variability: Variability::Discrete,
-            unit: None,
-            ..Variable::output(
-                "filter_healthy",
-                "1",
-                Role::FilterHealthy,
-                "false while the filter is inconsistent (its windowed innovations exceed their bound) or lost (every input rejected), and once it has failed",
-            )
-        },
+        Variable::count(
+            "skipped_measurements",
+            Role::SkippedMeasurements,
+            "measurement rows left out so far because the input was NaN, infinite or never set",
+        ),
+        Variable::count(
+            "rejected_measurements",
+            Role::RejectedMeasurements,
+            "measurement rows left out so far by the innovation gate",
+        ),
+        Variable::flag(
+            "filter_healthy",
+            Role::FilterHealthy,
+            "false while the filter is inconsistent (its windowed innovations exceed their bound) or lost (every input rejected), and once it has failed",
+        ),
     ]
-}
-
-/// A fixed Integer parameter with a lower bound.
-fn integer_parameter(name: &'static str, start: u32, min: u32, description: &'static str) -> Variable {
-    Variable { kind: Kind::Integer, unit: None, ..Variable::parameter(name, "1", f64::from(start), description) }
-        .bounded(Some(f64::from(min)), Some(1e6))
-}
-
-/// The fault flag output of measurement row `row`, named `<input>_fault`.
-pub(crate) fn fault_flag(name: &'static str, row: usize, description: &'static str) -> Variable {
-    Variable {
-        kind: Kind::Boolean,
-        variability: Variability::Discrete,
-        unit: None,
-        ..Variable::output(name, "1", Role::ChannelFault(row), description)
-    }
 }
 
 /// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from two FNV-1a hashes of the interface.

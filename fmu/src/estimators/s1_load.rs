@@ -12,7 +12,7 @@ use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEst
 use nalgebra::{DMatrix, DVector};
 
 use super::{DefaultExperiment, Descriptor};
-use crate::variables::{Kind, Parameters, Role, Variable};
+use crate::variables::{Parameters, Role, Variable};
 
 const STATE: [(&str, &str, &str); 6] = [
     ("z1", "m", "displacement of mass 1"),
@@ -27,14 +27,14 @@ pub(super) fn descriptor() -> Descriptor {
     let mut v = vec![
         Variable::measurement("z1_ddot", "m/s2", 0, "measured acceleration of mass 1 (NaN: missing)"),
         Variable::measurement("z2_ddot", "m/s2", 1, "measured acceleration of mass 2 (NaN: missing)"),
-        super::fault_flag(
+        Variable::flag(
             "z1_ddot_fault",
-            0,
+            Role::ChannelFault(0),
             "z1_ddot is faulty: rejected by the gate, stuck or missing for fault_after samples in a row",
         ),
-        super::fault_flag(
+        Variable::flag(
             "z2_ddot_fault",
-            1,
+            Role::ChannelFault(1),
             "z2_ddot is faulty: rejected by the gate, stuck or missing for fault_after samples in a row",
         ),
         Variable::output("F", "N", Role::Estimate(2), "estimated load on mass 2"),
@@ -78,12 +78,7 @@ pub(super) fn descriptor() -> Descriptor {
         positive(Variable::parameter("eps2", "m/s", 0.10, "ground damper: second breakpoint")),
         Variable::parameter("k2", "N/m", chain.k2, "coupling stiffness"),
         Variable::parameter("c2", "N.s/m", chain.c2, "coupling damping"),
-        Variable {
-            kind: Kind::Integer,
-            unit: None,
-            ..Variable::parameter("rk4_substeps", "1", 1.0, "RK4 steps per filter sample")
-        }
-        .bounded(Some(1.0), Some(1000.0)),
+        Variable::integer_parameter("rk4_substeps", 1, (1, 1000), "RK4 steps per filter sample"),
     ]);
     let x0 = ["x0_z1", "x0_z2", "x0_F", "x0_z1_dot", "x0_z2_dot", "x0_F_dot"];
     let p0 = ["p0_z1_std", "p0_z2_std", "p0_F_std", "p0_z1_dot_std", "p0_z2_dot_std", "p0_F_dot_std"];
