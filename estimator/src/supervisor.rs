@@ -524,6 +524,11 @@ impl Supervisor {
         Ok(())
     }
 
+    /// The measurement the last [`Supervisor::gate`] was given, as offered.
+    pub fn pending_measurement(&self) -> &[f64] {
+        &self.z_offered
+    }
+
     /// The outcome of the last [`Supervisor::gate`].
     pub fn pending(&self) -> &Outcome {
         &self.pending

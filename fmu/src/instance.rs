@@ -296,19 +296,11 @@ impl Instance {
         };
         if let Err(failure) = stepped {
             // Show the last good estimate, as it is, and say when it was.
-            let faulty: Vec<bool> = estimation.supervisor().channels().iter().map(|c| c.faulty).collect();
-            let last = Reading {
-                belief: estimation.filter(),
-                nis: estimation.nis(),
-                skipped: estimation.skipped(),
-                rejected: estimation.supervisor().rejected(),
-                faulty: &faulty,
-                healthy: false,
-            };
+            let mut last = estimation.last_reading();
+            last.healthy = false;
             write_outputs(&self.descriptor.variables, &mut self.values, Some(&last));
             self.outputs_stale = false;
             self.state = ModelState::StepFailed;
-            self.set_role(Role::FilterHealthy, 0.0);
             self.last_successful_time = failure.last_good;
             self.log(
                 Fmi2Status::Discard,

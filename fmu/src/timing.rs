@@ -111,11 +111,10 @@ pub struct Estimation {
     reader: Box<dyn StateEstimator>,
     /// The interval whose process noise the reader holds (s).
     reader_interval: f64,
-    /// The reader holds the filter's belief updated with `posterior_inputs`
-    /// (a feedthrough read), and the supervisor that update's outcome: the
-    /// step commits both by a copy, not a second update.
+    /// The reader holds the filter's belief updated with the supervisor's
+    /// pending measurement (a feedthrough read), and the supervisor that
+    /// update's outcome: the step commits both by a copy, not a second update.
     posterior_ready: bool,
-    posterior_inputs: Vec<f64>,
     /// Buffers for copying the filter's belief into the reader.
     copy: Snapshot,
     start: f64,
@@ -171,7 +170,6 @@ impl Estimation {
             reader,
             reader_interval: sample_time,
             posterior_ready: false,
-            posterior_inputs: vec![f64::NAN; m],
             copy,
             start,
             sample_time,
@@ -211,21 +209,6 @@ impl Estimation {
             },
             belief: self.filter.snapshot(),
         }
-    }
-
-    /// NIS of the latest update made.
-    pub fn nis(&self) -> f64 {
-        self.nis
-    }
-
-    /// Measurement rows left out of the updates so far.
-    pub fn skipped(&self) -> u64 {
-        self.skipped
-    }
-
-    /// The supervisor of the updates.
-    pub fn supervisor(&self) -> &Supervisor {
-        &self.supervisor
     }
 
     /// Takes the events since the last call, oldest first.
@@ -271,7 +254,7 @@ impl Estimation {
         let posterior_ready = std::mem::take(&mut self.posterior_ready);
         if self.timing == InputTiming::AtCommunicationPoint && self.at_current_sample(t) && !self.measured {
             let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-            if posterior_ready && same(&self.posterior_inputs, z) {
+            if posterior_ready && same(self.supervisor.pending_measurement(), z) {
                 // The read already made this update: take its result, bit for bit.
                 self.reader.snapshot_into(&mut self.copy);
                 if let Err(error) = self.filter.restore(&self.copy) {
@@ -348,7 +331,6 @@ impl Estimation {
                         Ok(outcome) => outcome.nis,
                         Err(e) => return Err(format!("the update with the inputs at t = {t} s failed: {e}")),
                     };
-                    self.posterior_inputs.copy_from_slice(z);
                     self.posterior_ready = true;
                     let skipped = self.skipped + missing_rows(z);
                     for (c, flag) in self.faulty.iter_mut().enumerate() {
@@ -379,6 +361,12 @@ impl Estimation {
                 .map_err(|e| format!("the prediction from {} s to {t} s failed: {e}", self.current_sample()))?;
             Ok(self.committed_reading(true))
         }
+    }
+
+    /// The filter's belief with the committed counts and flags: what a read
+    /// shows when no update is pending, and the last good estimate after a failure.
+    pub fn last_reading(&mut self) -> Reading<'_> {
+        self.committed_reading(false)
     }
 
     /// A reading of the committed counts, with the filter's belief or the reader's.
