@@ -30,9 +30,9 @@ use estimator::{
     build_filter, Discretized, FilterKind, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams,
 };
 
-use super::load::{Load, Step};
-use super::plant::{self, Truth};
-use super::{measure, Case, LoadKind, Measurements, Settings, Tuning};
+use super::load::Step;
+use super::plant::Truth;
+use super::{simulate_with, Case, Measurements, Settings, Tuning};
 
 /// When the faults start (s).
 pub const FAULT_START: f64 = 20.0;
@@ -105,19 +105,14 @@ pub struct Injected {
 
 /// Simulates `case` and injects `fault` (see the module documentation).
 pub fn inject(fault: Fault, case: &Case, settings: &Settings) -> Injected {
-    let mut load = match case.load {
-        LoadKind::Random => Load::random(settings.seed, settings.load_rms),
-        LoadKind::Harmonic => Load::harmonic(),
-    };
+    let mut load = super::load(case, settings);
     if fault == Fault::LoadStep {
         load = load.with_step(Step { at: FAULT_START, size: 10.0 * settings.load_rms });
     }
     let dt = settings.dt();
-    let truth = plant::simulate(&case.chain(), &load, dt, settings.samples(), settings.truth_substeps());
-    let mut measurements = measure(&truth, settings.noise_fraction, settings.seed);
+    let (truth, mut measurements) = simulate_with(case, settings, &load);
     let n = truth.time.len();
-    let rms = |c: usize| (truth.acceleration.iter().map(|a| a[c] * a[c]).sum::<f64>() / n as f64).sqrt();
-    let rms = [rms(0), rms(1)];
+    let rms = truth.acceleration_rms();
     let start = (FAULT_START / dt).round() as usize;
     let samples = |seconds: f64| (seconds / dt).round() as usize;
     let z = &mut measurements.acceleration;

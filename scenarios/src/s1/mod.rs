@@ -220,9 +220,8 @@ pub struct Measurements {
 pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
     // A stream of its own, so the noise does not change when the load's draw does.
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x05EE_D0FA_11CE);
-    let n = truth.acceleration.len() as f64;
-    let rms = |i: usize| (truth.acceleration.iter().map(|a| a[i] * a[i]).sum::<f64>() / n).sqrt();
-    let noise_std = [fraction * rms(0), fraction * rms(1)];
+    let rms = truth.acceleration_rms();
+    let noise_std = [fraction * rms[0], fraction * rms[1]];
     let acceleration = truth
         .acceleration
         .iter()
@@ -348,11 +347,21 @@ pub struct FilterRun {
 
 /// Runs the truth simulator of a case and returns the truth and the measurements.
 pub fn simulate(case: &Case, settings: &Settings) -> (Truth, Measurements) {
-    let load = match case.load {
+    simulate_with(case, settings, &load(case, settings))
+}
+
+/// The load of a case: the seeded random load or the harmonics.
+pub fn load(case: &Case, settings: &Settings) -> Load {
+    match case.load {
         LoadKind::Random => Load::random(settings.seed, settings.load_rms),
         LoadKind::Harmonic => Load::harmonic(),
-    };
-    let truth = plant::simulate(&case.chain(), &load, settings.dt(), settings.samples(), settings.truth_substeps());
+    }
+}
+
+/// Runs the truth simulator of a case under `load` (a case's load, or one
+/// changed for a study) and returns the truth and the measurements.
+pub fn simulate_with(case: &Case, settings: &Settings, load: &Load) -> (Truth, Measurements) {
+    let truth = plant::simulate(&case.chain(), load, settings.dt(), settings.samples(), settings.truth_substeps());
     let measurements = measure(&truth, settings.noise_fraction, settings.seed);
     (truth, measurements)
 }

@@ -27,6 +27,15 @@ pub struct Truth {
     pub acceleration: Vec<[f64; 2]>,
 }
 
+impl Truth {
+    /// The RMS of each acceleration over the whole history (m/s²).
+    pub fn acceleration_rms(&self) -> [f64; 2] {
+        let n = self.acceleration.len() as f64;
+        let rms = |i: usize| (self.acceleration.iter().map(|a| a[i] * a[i]).sum::<f64>() / n).sqrt();
+        [rms(0), rms(1)]
+    }
+}
+
 /// Simulates `samples` samples of `dt` from rest, with `substeps` RK4 steps
 /// per sample: `samples + 1` instants with the start.
 pub fn simulate(chain: &Oscillator2Dof, load: &Load, dt: f64, samples: usize, substeps: usize) -> Truth {
