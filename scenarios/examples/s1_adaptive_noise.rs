@@ -10,9 +10,7 @@
 
 use analyzer::metrics::compare;
 use estimator::models::Oscillator2DofLoad;
-use estimator::{
-    build_filter, Discretized, FilterKind, Noise, SageHusa, Supervisor, SupervisorSettings, UnscentedParams,
-};
+use estimator::{FilterKind, Noise, SageHusa, Supervisor, SupervisorSettings};
 use scenarios::s1::{simulate, Case, Settings, Tuning};
 
 fn main() {
@@ -33,10 +31,7 @@ fn main() {
             let told: Vec<f64> = true_r.iter().map(|r| r * scale).collect();
             let r = nalgebra::DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(&told));
             let noise = Noise::new(right.q().clone(), r).expect("a valid noise");
-            let model = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), 1);
-            let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
-            let mut filter =
-                build_filter(FilterKind::SrCkf, model, noise, &tuning.prior(), unscented).expect("the SRCKF");
+            let mut filter = tuning.filter(FilterKind::SrCkf, &case, noise).expect("the SRCKF");
             let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).expect("the supervisor");
             let mut sage_husa = SageHusa::new(&told, 0.995, 1e-3).expect("Sage–Husa");
             let mut load = Vec::with_capacity(measurements.acceleration.len());

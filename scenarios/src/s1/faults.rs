@@ -26,9 +26,7 @@ use std::fmt;
 
 use analyzer::metrics::correlation;
 use estimator::models::Oscillator2DofLoad;
-use estimator::{
-    build_filter, Discretized, FilterKind, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams,
-};
+use estimator::{FilterKind, RowOutcome, StateEstimator, Supervisor, SupervisorSettings};
 
 use super::load::Step;
 use super::plant::Truth;
@@ -229,9 +227,7 @@ pub fn run(
         failure: None,
     };
     let tuning = Tuning::new(settings, measurements.noise_std);
-    let model = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), 1);
-    let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
-    let built = build_filter(kind, model, tuning.noise(), &tuning.prior(), unscented);
+    let built = tuning.filter(kind, case, tuning.noise());
     let (mut filter, mut supervisor): (Box<dyn StateEstimator>, Supervisor) = match built
         .map_err(|e| e.to_string())
         .and_then(|f| Supervisor::new(supervision, 2).map(|s| (f, s)).map_err(|e| e.to_string()))

@@ -19,7 +19,7 @@ pub mod plant;
 use std::fmt;
 
 use estimator::models::{Oscillator2Dof, Oscillator2DofLoad};
-use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
+use estimator::{build_filter, Discretized, FilterError, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -300,6 +300,15 @@ impl Tuning {
         Noise::new(q, r).expect("the S1 tuning is a valid covariance pair")
     }
 
+    /// The study's estimator of `kind` for `case` from this prior with
+    /// `noise` (usually [`Tuning::noise`]): the chain's augmented model, RK4
+    /// once per sample, the UKF at α = 1, β = 2, κ = 0.
+    pub fn filter(&self, kind: FilterKind, case: &Case, noise: Noise) -> Result<Box<dyn StateEstimator>, FilterError> {
+        let model = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), 1);
+        let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
+        build_filter(kind, model, noise, &self.prior(), unscented)
+    }
+
     /// The prior: zero mean, the documented deviations.
     pub fn prior(&self) -> Gaussian {
         Gaussian::diagonal(&[0.0; 6], &self.prior_std.map(|s| s * s))
@@ -375,11 +384,8 @@ pub fn run_filter(
     measurements: &Measurements,
 ) -> FilterRun {
     let tuning = Tuning::new(settings, measurements.noise_std);
-    let (noise, prior) = (tuning.noise(), tuning.prior());
-    let model = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), 1);
-    let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let mut run = FilterRun { kind, load: Vec::new(), load_std: Vec::new(), comparison: None, failure: None };
-    let mut filter: Box<dyn StateEstimator> = match build_filter(kind, model, noise, &prior, unscented) {
+    let mut filter = match tuning.filter(kind, case, tuning.noise()) {
         Ok(f) => f,
         Err(e) => {
             run.failure = Some(format!("setup: {e}"));
