@@ -247,11 +247,11 @@ pub fn run(
             run.failure = Some(format!("t = {:.3} s (sample {k}): {e}", truth.time[k]));
             return run;
         }
-        let rows = supervisor.pending().rows.clone();
+        // The commit counts the outcome and leaves it readable as pending.
         supervisor.commit(|_| {});
         for c in 0..2 {
             let (finite, bad) = (z[c].is_finite(), corrupted[k][c]);
-            let left_out = matches!(rows[c], RowOutcome::Rejected | RowOutcome::Stuck);
+            let left_out = matches!(supervisor.pending().rows[c], RowOutcome::Rejected | RowOutcome::Stuck);
             let flagged = left_out || supervisor.channels()[c].faulty;
             match (finite, bad, left_out) {
                 (true, false, rejected) => {
