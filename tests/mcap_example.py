@@ -1,6 +1,6 @@
 """How to log a co-simulation of a kalfmu FMU so that `analyzer report` (and
-Foxglove, PlotJuggler, `rerun mcap`) can read it: the S1 load estimator
-driven by fmpy, logged with the `mcap` Python package. Copy and adapt.
+Foxglove, or Python with `mcap-ros1-support`) can read it: the S1 load
+estimator driven by fmpy, logged with the `mcap` Python package. Copy and adapt.
 
     python tests/mcap_example.py OUT.mcap [--fmu kalfmu_s1_load.fmu] [--table s1.csv]
     analyzer report OUT.mcap
@@ -10,24 +10,26 @@ Without --fmu/--table the script builds both with cargo (the FMU with
 
 The format (docs/log-format.md), in short:
 
-- MCAP, zstd chunks, summary section; message encoding `json`, schema
-  encoding `jsonschema`; a metadata record named `kalfmu` (strings only:
+- MCAP, zstd chunks, summary section; message encoding `ros1`, schema
+  encoding `ros1msg`; a metadata record named `kalfmu` (strings only:
   study, case, seed, filter, parameters as JSON, software);
 - channels `/measurements` (what the FMU was fed), `/truth` (the true values,
   named as the estimates they are compared with) and `/estimate` (the FMU's
   outputs: `X`, `X_std`, `nis`);
 - one message per sample: `log_time = publish_time =` simulation time in
-  integer ns, body `{"timestamp": {"sec", "nsec"}, "<signal>": value, …}` with
-  every signal of the channel, `null` for a missing or non-finite value;
-- one JSON Schema per channel, each signal with its `unit` (from the FMU's
-  modelDescription) and a `description` ending in `[unit]`.
+  integer ns, body every signal of the channel as a little-endian float64,
+  in schema order (NaN for a missing value);
+- one ROS 1 message definition per channel, named `kalfmu/<Topic>`: a line
+  `float64 <signal>  # [<unit>] <description>` per signal, the unit from the
+  FMU's modelDescription.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
+import re
+import struct
 import subprocess
 import tempfile
 from dataclasses import dataclass
@@ -49,19 +51,23 @@ class Signal:
     description: str
 
 
-def schema(topic: str, signals: list[Signal]) -> dict:
-    """The JSON Schema of a channel (no `$ref`, every field required)."""
-    properties = {
-        "timestamp": {
-            "type": "object",
-            "description": "simulation time",
-            "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}},
-            "required": ["sec", "nsec"],
-        }
-    }
+def schema_name(topic: str) -> str:
+    """`kalfmu/` and the topic in CamelCase: /truth -> kalfmu/Truth."""
+    parts = [p for p in re.split(r"[^A-Za-z0-9]+", topic) if p]
+    name = "".join(p[0].upper() + p[1:] for p in parts)
+    return "kalfmu/" + (name if name[:1].isalpha() else "Channel" + name)
+
+
+def schema(topic: str, signals: list[Signal]) -> str:
+    """The ROS 1 message definition of a channel: one float64 per signal."""
+    lines = [
+        f"# kalfmu log channel {topic}: one value per signal, NaN where missing; "
+        "time is the message's log_time (docs/log-format.md)"
+    ]
     for s in signals:
-        properties[s.name] = {"type": ["number", "null"], "unit": s.unit, "description": f"{s.description} [{s.unit}]"}
-    return {"title": topic, "type": "object", "properties": properties, "required": ["timestamp"] + [s.name for s in signals]}
+        description = s.description.replace("\n", " ").replace("\r", " ")
+        lines.append(f"float64 {s.name}  # [{s.unit}] {description}")
+    return "\n".join(lines) + "\n"
 
 
 class KalfmuLog:
@@ -77,26 +83,22 @@ class KalfmuLog:
         )
         self._writer.start(profile="")
         self._writer.add_metadata("kalfmu", {k: str(v) for k, v in metadata.items()})
-        self._channels: dict[str, tuple[int, list[str]]] = {}
+        self._channels: dict[str, tuple[int, struct.Struct]] = {}
         self._sequence = 0
 
     def add_channel(self, topic: str, signals: list[Signal]) -> None:
-        data = json.dumps(schema(topic, signals)).encode()
-        schema_id = self._writer.register_schema(name="kalfmu" + topic.replace("/", "."), encoding="jsonschema", data=data)
-        channel_id = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
-        self._channels[topic] = (channel_id, [s.name for s in signals])
+        data = schema(topic, signals).encode()
+        schema_id = self._writer.register_schema(name=schema_name(topic), encoding="ros1msg", data=data)
+        channel_id = self._writer.register_channel(topic=topic, message_encoding="ros1", schema_id=schema_id)
+        self._channels[topic] = (channel_id, struct.Struct(f"<{len(signals)}d"))
 
     def write(self, topic: str, time: float, values) -> None:
         """One sample: `values` in the order of the channel's signals."""
-        channel_id, names = self._channels[topic]
-        if len(values) != len(names):
-            raise ValueError(f"{topic}: {len(values)} values for {len(names)} signals")
+        channel_id, layout = self._channels[topic]
+        if len(values) != layout.size // 8:
+            raise ValueError(f"{topic}: {len(values)} values for {layout.size // 8} signals")
         ns = int(round(time * 1e9))
-        body = {"timestamp": {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}}
-        for name, v in zip(names, values):
-            v = float(v)
-            body[name] = v if math.isfinite(v) else None  # missing or NaN -> null
-        data = json.dumps(body, allow_nan=False, separators=(",", ":")).encode()
+        data = layout.pack(*(float(v) for v in values))  # a missing value is NaN
         self._writer.add_message(channel_id, log_time=ns, data=data, publish_time=ns, sequence=self._sequence)
         self._sequence += 1
 

@@ -35,6 +35,7 @@ from scipy import signal as sps
 
 from fmpy import read_model_description
 from mcap.reader import make_reader
+from mcap_ros1.decoder import DecoderFactory
 
 from mcap_example import KalfmuLog, Signal, run_s1, write_s1_log
 
@@ -171,9 +172,10 @@ def paired(s1_log):
 
 
 def test_the_python_log_is_valid_mcap_with_the_fmu_units(s1_log, s1_fmu):
-    """Read back with the `mcap` reader: three JSON/JSON Schema channels, one
-    message per sample t_0 … t_n, the units of the modelDescription, the
-    `kalfmu` metadata record."""
+    """Read back with the `mcap` reader and Foxglove's ROS 1 decoder
+    (`mcap-ros1-support`): three ros1/ros1msg channels, one message per sample
+    t_0 … t_n, each decoding to the values written, the units of the
+    modelDescription, the `kalfmu` metadata record."""
     path, run = s1_log
     units = {v.name: v.unit for v in read_model_description(str(s1_fmu)).modelVariables}
     with open(path, "rb") as f:
@@ -183,15 +185,22 @@ def test_the_python_log_is_valid_mcap_with_the_fmu_units(s1_log, s1_fmu):
         assert counts == {"/measurements": 1001, "/truth": 1001, "/estimate": 1001}
         for channel in summary.channels.values():
             sch = summary.schemas[channel.schema_id]
-            assert (channel.message_encoding, sch.encoding) == ("json", "jsonschema")
-            schema = json.loads(sch.data)
-            names = [name for name in schema["properties"] if name != "timestamp"]
-            assert schema["required"] == ["timestamp"] + names
-            for name in names:
-                unit = schema["properties"][name]["unit"]
-                assert unit == units[name], (channel.topic, name)
-                assert schema["properties"][name]["description"].endswith(f"[{unit}]")
+            assert (channel.message_encoding, sch.encoding) == ("ros1", "ros1msg")
+            fields = [line.split("#")[0].split() for line in sch.data.decode().splitlines()]
+            for kind, name in filter(None, fields):
+                assert kind == "float64"
+                assert f"float64 {name}  # [{units[name]}] " in sch.data.decode(), (channel.topic, name)
         [meta] = [m for m in reader.iter_metadata() if m.name == "kalfmu"]
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        decoded = {"/measurements": [], "/truth": [], "/estimate": []}
+        for _, channel, message, ros in reader.iter_decoded_messages():
+            decoded[channel.topic].append((message.log_time, ros))
+    ns = [int(round(t * 1e9)) for t in run.time]
+    assert [t for t, _ in decoded["/truth"]] == ns
+    assert [m.F for _, m in decoded["/truth"]] == list(run.load)
+    assert [m.z2_ddot for _, m in decoded["/measurements"]] == list(run.z[:, 1])
+    assert [m.F_std for _, m in decoded["/estimate"]] == list(run.result["F_std"])
     assert meta.metadata == run.metadata
     assert {"study", "case", "seed", "filter", "parameters", "software"} <= meta.metadata.keys()
     assert json.loads(meta.metadata["parameters"])["r_z1_ddot_std"] > 0

@@ -14,13 +14,27 @@ pub enum LogError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// The MCAP container is truncated or corrupt.
-    #[error("{file}: not a readable MCAP file: {source}")]
+    /// The MCAP writer failed.
+    #[error("{file}: cannot write the MCAP log: {source}")]
     Mcap {
         /// The file.
         file: PathBuf,
-        /// What the MCAP reader found.
+        /// What the MCAP writer reported.
         source: mcap::McapError,
+    },
+    /// The file is not an MCAP file at all.
+    #[error("{file}: not an MCAP file (it does not start with the MCAP magic bytes)")]
+    NotMcap {
+        /// The file.
+        file: PathBuf,
+    },
+    /// The MCAP file is cut short or damaged before anything could be recovered.
+    #[error("{file}: a truncated or damaged MCAP file: {what}")]
+    Truncated {
+        /// The file.
+        file: PathBuf,
+        /// Where and what.
+        what: String,
     },
     /// A channel the analysis needs is not in the log.
     #[error("{file}: channel {channel} is missing (the log has: {present})")]

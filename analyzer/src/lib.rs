@@ -11,6 +11,7 @@
 //! analyzer::rrd::write_rrd(&report, &run, std::path::Path::new("run.rrd")).unwrap();
 //! ```
 
+pub mod container;
 pub mod error;
 pub mod log;
 pub mod metrics;

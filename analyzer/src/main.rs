@@ -73,6 +73,9 @@ fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
     match &cli.command {
         Command::Report(args) => {
             let run = read_log(&args.log)?;
+            if let Some(warning) = run.recovery_warning() {
+                eprintln!("warning: {warning}");
+            }
             let options = Options {
                 rmse_window: args.rmse_window,
                 psd_segment: args.psd_segment,

@@ -59,22 +59,23 @@ pub fn rmse(a: &[f64], b: &[f64]) -> f64 {
 
 /// Trailing-window RMSE of `a − b` (window `w` samples, partial at the start).
 pub fn running_rmse(a: &[f64], b: &[f64], w: usize) -> Vec<f64> {
-    let mut out = Vec::with_capacity(a.len());
+    let n = a.len().min(b.len());
+    let sq = |k: usize| (a[k] - b[k]).powi(2);
+    let mut out = Vec::with_capacity(n);
     let mut sum = 0.0;
-    let sq: Vec<f64> = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).collect();
     // The running sum keeps an absolute rounding error of a few eps times the
     // largest sum it has held; re-summing the window exactly whenever the sum
     // falls 1000× below that peak (a large error leaving the window) keeps the
     // relative error near 1e-12, and every 4096 samples bounds any drift.
     let mut peak = 0.0_f64;
-    for k in 0..sq.len() {
-        sum += sq[k];
+    for k in 0..n {
+        sum += sq(k);
         if k >= w {
-            sum -= sq[k - w];
+            sum -= sq(k - w);
         }
         peak = peak.max(sum);
         if k % 4096 == 4095 || sum < 1e-3 * peak {
-            sum = sq[(k + 1).saturating_sub(w)..=k].iter().sum();
+            sum = ((k + 1).saturating_sub(w)..=k).map(sq).sum();
             peak = sum;
         }
         let count = (k + 1).min(w);
@@ -86,9 +87,13 @@ pub fn running_rmse(a: &[f64], b: &[f64], w: usize) -> Vec<f64> {
 /// All metrics of `estimate` against `truth`, sampled every `dt` from the
 /// simulation time `t0`, with a running-RMSE window of `window` seconds.
 pub fn compare(truth: &[f64], estimate: &[f64], t0: f64, dt: f64, window: f64) -> Comparison {
-    let n = truth.len();
     let w = ((window / dt).round() as usize).max(1);
-    let running = running_rmse(truth, estimate, w);
+    compare_with_running_rmse(truth, estimate, &running_rmse(truth, estimate, w), t0, dt)
+}
+
+/// [`compare`] given the running RMSE already computed (by [`running_rmse`]).
+pub fn compare_with_running_rmse(truth: &[f64], estimate: &[f64], running: &[f64], t0: f64, dt: f64) -> Comparison {
+    let n = truth.len();
     let steady = rmse(&truth[n / 2..], &estimate[n / 2..]);
     let threshold = 2.0 * steady;
     let converged_from = running.iter().rposition(|&r| r > threshold).map_or(0, |k| k + 1).min(n - 1);

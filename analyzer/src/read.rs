@@ -1,15 +1,15 @@
-//! Reads a log of the kalfmu format (see `log.rs`) into memory, checking it
-//! as it goes: a corrupt or truncated container, a schema that is not the
-//! format's, a message that does not match its schema, time that does not
-//! increase — each a [`LogError`] naming the file, the channel and the time.
+//! Reads a log of the kalfmu format (see `log.rs`) into memory as one array per
+//! signal, streaming the file and checking it as it goes: a schema that is not the
+//! format's, a message that does not match its schema, time that does not increase —
+//! each a [`LogError`] naming the file, the channel and the time. A container cut
+//! short is read up to the cut (see `container.rs`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use serde_json::Value;
-
+use crate::container::{message_counts, read_records, Damage, Ending, Record};
 use crate::error::LogError;
-use crate::log::{SignalSpec, METADATA};
+use crate::log::{parse_schema, SignalSpec, MESSAGE_ENCODING, METADATA, SCHEMA_ENCODING};
 
 /// One signal's samples.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,9 +47,29 @@ pub struct Run {
     pub metadata: BTreeMap<String, String>,
     /// The channels that have messages, in the order they first appear.
     pub channels: Vec<Channel>,
+    /// Where the readable part ends, if the log was cut short or damaged.
+    pub damage: Option<Damage>,
 }
 
 impl Run {
+    /// For a damaged log: what was recovered (messages and time span per channel) and
+    /// where the log ends. `None` for a complete log.
+    pub fn recovery_warning(&self) -> Option<String> {
+        let damage = self.damage.as_ref()?;
+        let mut text = format!(
+            "{}: the log is cut short at byte {} of {} ({}); recovered the messages before it:",
+            self.file.display(),
+            damage.offset,
+            damage.file_len,
+            damage.what
+        );
+        for c in &self.channels {
+            let (first, last) = (c.time.first().copied().unwrap_or(0.0), c.time.last().copied().unwrap_or(0.0));
+            text.push_str(&format!("\n  {}: {} messages, t = {first} s to {last} s", c.topic, c.time.len()));
+        }
+        Some(text)
+    }
+
     /// The channel on `topic`, or an error saying which channels there are.
     pub fn channel(&self, topic: &str) -> Result<&Channel, LogError> {
         self.channels.iter().find(|c| c.topic == topic).ok_or_else(|| LogError::MissingChannel {
@@ -60,107 +80,134 @@ impl Run {
     }
 }
 
-/// Reads and checks the log at `path`.
+/// Reads and checks the log at `path`, streaming it record by record.
+///
+/// A log cut short (a writer that died) is read up to the damage: [`Run::damage`] says
+/// where and why, and [`Run::recovery_warning`] what was recovered. A file with no
+/// complete message before its damage is an error.
 pub fn read_log(path: &Path) -> Result<Run, LogError> {
     let file = path.to_path_buf();
-    let bytes = std::fs::read(path).map_err(|source| LogError::Io { file: file.clone(), source })?;
-    let mcap_error = |source| LogError::Mcap { file: file.clone(), source };
-    let metadata = read_metadata(&bytes).map_err(mcap_error)?;
+    let mut metadata = BTreeMap::new();
+    let mut schemas: BTreeMap<u16, (String, Vec<u8>)> = BTreeMap::new();
+    let mut declared: BTreeMap<u16, (String, String, u16)> = BTreeMap::new();
     let mut channels: Vec<Channel> = Vec::new();
-    let mut by_id: BTreeMap<u16, usize> = BTreeMap::new();
-    for message in mcap::MessageStream::new(&bytes).map_err(mcap_error)? {
-        let message = message.map_err(mcap_error)?;
-        let index = match by_id.get(&message.channel.id) {
-            Some(&i) => i,
-            None => {
-                let channel = open_channel(&file, &message.channel)?;
-                if channels.iter().any(|c| c.topic == channel.topic) {
-                    return Err(schema_error(&file, &channel.topic, "two channels have this topic".into()));
+    // Channel id → 1 + index in `channels` (0: not seen yet); ids are u16.
+    let mut slots = vec![0u32; 1 << 16];
+    let counts = message_counts(path).unwrap_or_default();
+    // A count from a corrupt summary could ask for any memory: none is believed beyond
+    // what the file could hold at a compression ratio of 64 (values that are all zero).
+    let most = std::fs::metadata(path).map_or(0, |m| m.len().saturating_mul(64 / 8));
+    let ending = read_records(path, |record| {
+        match record {
+            Record::Message { channel_id, log_time, data } => {
+                let slot = &mut slots[usize::from(channel_id)];
+                if *slot == 0 {
+                    let mut channel = open_channel(&file, channel_id, &declared, &schemas)?;
+                    let count = counts.get(&channel_id).map_or(0, |&n| n.min(most) as usize);
+                    channel.time.reserve_exact(count);
+                    for signal in &mut channel.signals {
+                        signal.values.reserve_exact(count);
+                    }
+                    if channels.iter().any(|c| c.topic == channel.topic) {
+                        return Err(schema_error(&file, &channel.topic, "two channels have this topic".into()));
+                    }
+                    channels.push(channel);
+                    *slot = channels.len() as u32;
                 }
-                channels.push(channel);
-                by_id.insert(message.channel.id, channels.len() - 1);
-                channels.len() - 1
+                let channel = &mut channels[*slot as usize - 1];
+                // Divide (correctly rounded) rather than multiply by 1e-9: 990000000 ns reads as 0.99 s.
+                let time = log_time as f64 / 1e9;
+                if let Some(&previous) = channel.time.last() {
+                    if time <= previous {
+                        return Err(LogError::NonMonotonicTime {
+                            file: file.clone(),
+                            channel: channel.topic.clone(),
+                            previous,
+                            time,
+                            index: channel.time.len(),
+                        });
+                    }
+                }
+                if data.len() != 8 * channel.signals.len() {
+                    return Err(LogError::Message {
+                        file: file.clone(),
+                        channel: channel.topic.clone(),
+                        time,
+                        what: format!(
+                            "{} bytes, where the schema's {} float64 fields take {}",
+                            data.len(),
+                            channel.signals.len(),
+                            8 * channel.signals.len()
+                        ),
+                    });
+                }
+                channel.time.push(time);
+                for (signal, bytes) in channel.signals.iter_mut().zip(data.chunks_exact(8)) {
+                    signal.values.push(f64::from_le_bytes(bytes.try_into().expect("8 bytes")));
+                }
             }
-        };
-        let channel = &mut channels[index];
-        // Divide (correctly rounded) rather than multiply by 1e-9: 990000000 ns reads as 0.99 s.
-        let time = message.log_time as f64 / 1e9;
-        if let Some(&previous) = channel.time.last() {
-            if time <= previous {
-                return Err(LogError::NonMonotonicTime {
+            Record::Schema { id, encoding, data, .. } => {
+                schemas.insert(id, (encoding.to_string(), data.to_vec()));
+            }
+            Record::Channel { id, schema_id, topic, message_encoding } => {
+                declared.insert(id, (topic.to_string(), message_encoding.to_string(), schema_id));
+            }
+            Record::Metadata { name, entries } => {
+                if name == METADATA {
+                    metadata = entries;
+                }
+            }
+        }
+        Ok(())
+    })?;
+    let damage = match ending {
+        Ending::Complete => None,
+        Ending::Damaged(damage) => {
+            if channels.is_empty() {
+                return Err(LogError::Truncated {
                     file,
-                    channel: channel.topic.clone(),
-                    previous,
-                    time,
-                    index: channel.time.len(),
+                    what: format!(
+                        "no complete message before byte {} of {}: {}",
+                        damage.offset, damage.file_len, damage.what
+                    ),
                 });
             }
+            Some(damage)
         }
-        let problem =
-            |what: String| LogError::Message { file: file.clone(), channel: channel.topic.clone(), time, what };
-        let body: Value = serde_json::from_slice(&message.data).map_err(|e| problem(format!("not JSON: {e}")))?;
-        let Value::Object(fields) = body else {
-            return Err(problem("the message is not a JSON object".into()));
-        };
-        if let Some(unknown) = fields.keys().find(|k| *k != "timestamp" && channel.signal(k).is_none()) {
-            return Err(problem(format!("field '{unknown}' is not in the channel's schema")));
-        }
-        let mut row = Vec::with_capacity(channel.signals.len());
-        for signal in &channel.signals {
-            let value = match fields.get(&signal.spec.name) {
-                Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
-                Some(Value::Null) => f64::NAN,
-                Some(other) => return Err(problem(format!("field '{}' is {other}, not a number", signal.spec.name))),
-                None => return Err(problem(format!("field '{}' of the schema is missing", signal.spec.name))),
-            };
-            row.push(value);
-        }
-        channel.time.push(time);
-        for (signal, value) in channel.signals.iter_mut().zip(row) {
-            signal.values.push(value);
-        }
-    }
-    Ok(Run { file, metadata, channels })
+    };
+    Ok(Run { file, metadata, channels, damage })
 }
 
 fn schema_error(file: &Path, topic: &str, what: String) -> LogError {
     LogError::Schema { file: file.to_path_buf(), channel: topic.into(), what }
 }
 
-/// A channel from its MCAP record: checks the encodings and reads the signals from the schema.
-fn open_channel(file: &Path, channel: &mcap::Channel<'_>) -> Result<Channel, LogError> {
-    let topic = &channel.topic;
-    if channel.message_encoding != "json" {
-        return Err(schema_error(file, topic, format!("message encoding is '{}', not json", channel.message_encoding)));
-    }
-    let schema = channel.schema.as_ref().ok_or_else(|| schema_error(file, topic, "has no schema".into()))?;
-    if schema.encoding != "jsonschema" {
-        return Err(schema_error(file, topic, format!("schema encoding is '{}', not jsonschema", schema.encoding)));
-    }
-    let parsed: Value = serde_json::from_slice(&schema.data)
-        .map_err(|e| schema_error(file, topic, format!("schema is not JSON: {e}")))?;
-    let properties = parsed
-        .get("properties")
-        .and_then(Value::as_object)
-        .ok_or_else(|| schema_error(file, topic, "schema has no 'properties' object".into()))?;
-    let mut signals = Vec::new();
-    for (name, property) in properties.iter().filter(|(name, _)| *name != "timestamp") {
-        let text = |key: &str| property.get(key).and_then(Value::as_str).unwrap_or("").to_string();
-        signals.push(Signal {
-            spec: SignalSpec { name: name.clone(), unit: text("unit"), description: text("description") },
-            values: Vec::new(),
+/// The channel `id` from its records: checks the encodings and reads the signals from the schema.
+fn open_channel(
+    file: &Path,
+    id: u16,
+    declared: &BTreeMap<u16, (String, String, u16)>,
+    schemas: &BTreeMap<u16, (String, Vec<u8>)>,
+) -> Result<Channel, LogError> {
+    let Some((topic, message_encoding, schema_id)) = declared.get(&id) else {
+        return Err(LogError::Schema {
+            file: file.to_path_buf(),
+            channel: format!("id {id}"),
+            what: "a message comes before its channel record".into(),
         });
-    }
-    Ok(Channel { topic: topic.clone(), time: Vec::new(), signals })
-}
-
-/// The `kalfmu` metadata record, found through the summary (or an empty map).
-fn read_metadata(bytes: &[u8]) -> Result<BTreeMap<String, String>, mcap::McapError> {
-    let Some(summary) = mcap::Summary::read(bytes)? else {
-        return Ok(BTreeMap::new());
     };
-    match summary.metadata_indexes.iter().find(|i| i.name == METADATA) {
-        Some(index) => Ok(mcap::read::metadata(bytes, index)?.metadata),
-        None => Ok(BTreeMap::new()),
+    let fail = |what: String| schema_error(file, topic, what);
+    if message_encoding != MESSAGE_ENCODING {
+        return Err(fail(format!(
+            "message encoding is '{message_encoding}', not {MESSAGE_ENCODING} (docs/log-format.md)"
+        )));
     }
+    let (encoding, data) = schemas.get(schema_id).ok_or_else(|| fail("has no schema".into()))?;
+    if encoding != SCHEMA_ENCODING {
+        return Err(fail(format!("schema encoding is '{encoding}', not {SCHEMA_ENCODING}")));
+    }
+    let text = std::str::from_utf8(data).map_err(|_| fail("the schema is not UTF-8 text".into()))?;
+    let signals =
+        parse_schema(text).map_err(fail)?.into_iter().map(|spec| Signal { spec, values: Vec::new() }).collect();
+    Ok(Channel { topic: topic.clone(), time: Vec::new(), signals })
 }

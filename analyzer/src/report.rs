@@ -6,6 +6,7 @@
 //! adds or replaces a pair. Samples are matched by time stamp; only the
 //! times both channels have are compared.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -14,7 +15,7 @@ use serde::Serialize;
 
 use crate::error::LogError;
 use crate::log::{ESTIMATE, TRUTH};
-use crate::metrics::{compare, running_rmse, Comparison};
+use crate::metrics::{compare_with_running_rmse, running_rmse, Comparison};
 use crate::psd::{agreement_band, welch, Spectrum};
 use crate::read::Run;
 
@@ -48,7 +49,7 @@ impl Default for Options {
 
 /// The analysis of one pair: metrics for machines, series for the recording.
 #[derive(Debug, Clone, Serialize)]
-pub struct PairReport {
+pub struct PairReport<'a> {
     /// The truth signal.
     pub truth: String,
     /// The estimate signal.
@@ -64,18 +65,18 @@ pub struct PairReport {
     pub two_sigma_coverage: Option<f64>,
     /// The widest band (Hz) where the spectra agree within the threshold.
     pub psd_agreement_band: Option<(f64, f64)>,
-    /// Compared times (s).
+    /// Compared times (s); borrowed from the run where the channels' samples line up.
     #[serde(skip)]
-    pub time: Vec<f64>,
+    pub time: Cow<'a, [f64]>,
     /// Truth values at those times.
     #[serde(skip)]
-    pub truth_values: Vec<f64>,
+    pub truth_values: Cow<'a, [f64]>,
     /// Estimate values at those times.
     #[serde(skip)]
-    pub estimate_values: Vec<f64>,
+    pub estimate_values: Cow<'a, [f64]>,
     /// σ of the estimate, if logged.
     #[serde(skip)]
-    pub sigma: Option<Vec<f64>>,
+    pub sigma: Option<Cow<'a, [f64]>>,
     /// Running RMSE.
     #[serde(skip)]
     pub running_rmse: Vec<f64>,
@@ -89,7 +90,7 @@ pub struct PairReport {
 
 /// The analysis of a log.
 #[derive(Debug, Clone, Serialize)]
-pub struct Report {
+pub struct Report<'a> {
     /// The log file.
     pub file: String,
     /// Its metadata record.
@@ -101,11 +102,11 @@ pub struct Report {
     /// Spectrum agreement threshold (dB).
     pub agreement_db: f64,
     /// One entry per pair.
-    pub pairs: Vec<PairReport>,
+    pub pairs: Vec<PairReport<'a>>,
 }
 
 /// Analyses a run.
-pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
+pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogError> {
     let file = &run.file;
     let fail = |what: String| LogError::Analysis { file: file.clone(), what };
     let truth = run.channel(TRUTH)?;
@@ -126,15 +127,11 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
             "no signal of {TRUTH} has a namesake on {topic}; name one with --pair truth.X=estimate.Y"
         )));
     }
-    // Samples at the times both channels have (time stamps are integral ns).
-    let key = |t: f64| (t * 1e9).round() as i64;
-    let estimate_index: BTreeMap<i64, usize> = estimate.time.iter().enumerate().map(|(i, &t)| (key(t), i)).collect();
-    let common: Vec<(usize, usize)> =
-        truth.time.iter().enumerate().filter_map(|(i, &t)| estimate_index.get(&key(t)).map(|&j| (i, j))).collect();
+    let common = Common::of(&truth.time, &estimate.time);
     if common.len() < 4 {
         return Err(fail(format!("{TRUTH} and {topic} share only {} time stamps", common.len())));
     }
-    let time: Vec<f64> = common.iter().map(|&(i, _)| truth.time[i]).collect();
+    let time = common.pick(&truth.time, 0);
     let dt = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
     if let Some(w) = time.windows(2).find(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt) {
         return Err(fail(format!(
@@ -147,8 +144,8 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     for (t_name, e_name) in pairs {
         let t_signal = truth.signal(&t_name).ok_or_else(|| fail(format!("{TRUTH} has no signal '{t_name}'")))?;
         let e_signal = estimate.signal(&e_name).ok_or_else(|| fail(format!("{topic} has no signal '{e_name}'")))?;
-        let picked = |values: &[f64], channel: &str, signal: &str, which: fn(&(usize, usize)) -> usize| {
-            let out: Vec<f64> = common.iter().map(|p| values[which(p)]).collect();
+        let picked = |values: &'a [f64], channel: &str, signal: &str, side: usize| {
+            let out = common.pick(values, side);
             match out.iter().position(|v| !v.is_finite()) {
                 Some(k) => Err(LogError::NotFinite {
                     file: file.clone(),
@@ -159,20 +156,21 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
                 None => Ok(out),
             }
         };
-        let truth_values = picked(&t_signal.values, TRUTH, &t_name, |p| p.0)?;
-        let estimate_values = picked(&e_signal.values, topic, &e_name, |p| p.1)?;
+        let truth_values = picked(&t_signal.values, TRUTH, &t_name, 0)?;
+        let estimate_values = picked(&e_signal.values, topic, &e_name, 1)?;
         let sigma_name = format!("{e_name}_std");
         let sigma = match estimate.signal(&sigma_name) {
-            Some(s) => Some(picked(&s.values, topic, &sigma_name, |p| p.1)?),
+            Some(s) => Some(picked(&s.values, topic, &sigma_name, 1)?),
             None => None,
         };
-        let comparison = compare(&truth_values, &estimate_values, time[0], dt, options.rmse_window);
         let w = ((options.rmse_window / dt).round() as usize).max(1);
+        let running_rmse = running_rmse(&truth_values, &estimate_values, w);
+        let comparison = compare_with_running_rmse(&truth_values, &estimate_values, &running_rmse, time[0], dt);
         let two_sigma_coverage = sigma.as_ref().map(|s| {
             let inside = truth_values
                 .iter()
-                .zip(&estimate_values)
-                .zip(s)
+                .zip(estimate_values.iter())
+                .zip(s.iter())
                 .filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s)
                 .count();
             inside as f64 / truth_values.len() as f64
@@ -188,7 +186,7 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
             comparison,
             two_sigma_coverage,
             psd_agreement_band: agreement_band(&truth_spectrum, &estimate_spectrum, options.agreement_db),
-            running_rmse: running_rmse(&truth_values, &estimate_values, w),
+            running_rmse,
             time: time.clone(),
             truth_values,
             estimate_values,
@@ -207,7 +205,72 @@ pub fn analyse(run: &Run, options: &Options) -> Result<Report, LogError> {
     })
 }
 
-impl Report {
+/// The samples two channels share: the index pairs `(i, j)` with `a[i] == b[j]` to the
+/// nanosecond; as is usual, two ranges of the same length that line up.
+enum Common {
+    Ranges { a: usize, b: usize, len: usize },
+    Pairs(Vec<[usize; 2]>),
+}
+
+impl Common {
+    /// By a merge pass over two strictly increasing time series (two when they do not line up).
+    fn of(a: &[f64], b: &[f64]) -> Self {
+        let mut first = None;
+        let mut len = 0;
+        let mut lined_up = true;
+        merge(a, b, |i, j| {
+            let &mut (i0, j0) = first.get_or_insert((i, j));
+            lined_up &= i == i0 + len && j == j0 + len;
+            len += 1;
+        });
+        match first {
+            None => Common::Ranges { a: 0, b: 0, len: 0 },
+            Some((a, b)) if lined_up => Common::Ranges { a, b, len },
+            Some(_) => {
+                let mut pairs = Vec::with_capacity(len);
+                merge(a, b, |i, j| pairs.push([i, j]));
+                Common::Pairs(pairs)
+            }
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Common::Ranges { len, .. } => *len,
+            Common::Pairs(pairs) => pairs.len(),
+        }
+    }
+
+    /// The shared samples of `values`, a series of side 0 (`a`) or 1 (`b`): borrowed when lined up.
+    fn pick<'a>(&self, values: &'a [f64], side: usize) -> Cow<'a, [f64]> {
+        match self {
+            Common::Ranges { a, b, len } => {
+                let start = if side == 0 { *a } else { *b };
+                Cow::Borrowed(&values[start..start + len])
+            }
+            Common::Pairs(pairs) => Cow::Owned(pairs.iter().map(|p| values[p[side]]).collect()),
+        }
+    }
+}
+
+/// Calls `matched(i, j)` for each `a[i] == b[j]` (to the nanosecond) of two increasing series.
+fn merge(a: &[f64], b: &[f64], mut matched: impl FnMut(usize, usize)) {
+    let key = |t: f64| (t * 1e9).round() as i64;
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match key(a[i]).cmp(&key(b[j])) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                matched(i, j);
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+}
+
+impl Report<'_> {
     /// The table printed by `analyzer report`.
     pub fn table(&self) -> String {
         let mut out = String::new();

@@ -268,15 +268,15 @@ impl Recording<'_> {
         if let Some(sigma) = &p.sigma {
             let plus = signals("plus_2sigma");
             self.style(&plus, &unit("estimate + 2σ"), Some(band_color()), 0.75)?;
-            self.series(&plus, &p.time, p.estimate_values.iter().zip(sigma).map(|(e, s)| e + 2.0 * s))?;
+            self.series(&plus, &p.time, p.estimate_values.iter().zip(sigma.iter()).map(|(e, s)| e + 2.0 * s))?;
             let minus = signals("minus_2sigma");
             self.style(&minus, &unit("estimate − 2σ"), Some(band_color()), 0.75)?;
-            self.series(&minus, &p.time, p.estimate_values.iter().zip(sigma).map(|(e, s)| e - 2.0 * s))?;
+            self.series(&minus, &p.time, p.estimate_values.iter().zip(sigma.iter()).map(|(e, s)| e - 2.0 * s))?;
         }
 
         let error = errors("error");
         self.style(&error, &unit("error (estimate − truth)"), Some(error_color()), 1.0)?;
-        self.series(&error, &p.time, p.estimate_values.iter().zip(&p.truth_values).map(|(e, t)| e - t))?;
+        self.series(&error, &p.time, p.estimate_values.iter().zip(p.truth_values.iter()).map(|(e, t)| e - t))?;
         let rmse = errors("running_rmse");
         self.style(&rmse, &unit("running RMSE"), Some(rmse_color()), 1.5)?;
         self.series(&rmse, &p.time, p.running_rmse.iter().copied())?;

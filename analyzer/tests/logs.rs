@@ -48,9 +48,9 @@ fn a_log_round_trips_with_its_metadata_units_and_missing_values() {
     assert_eq!(run.metadata["seed"], "7");
     let m = run.channel(MEASUREMENTS).unwrap();
     assert_eq!(m.time.len(), 2000);
-    assert!(m.signal("a").unwrap().values[5].is_nan(), "null reads back as NaN");
+    assert!(m.signal("a").unwrap().values[5].is_nan(), "a missing value reads back as NaN");
     let e = run.channel(ESTIMATE).unwrap();
-    assert_eq!(e.signal("F").unwrap().spec.unit, "N");
+    assert_eq!(e.signal("F").unwrap().spec, SignalSpec::new("F", "N", "estimated load"));
     assert_eq!(e.time[1], 0.01);
 }
 
@@ -58,7 +58,8 @@ fn a_log_round_trips_with_its_metadata_units_and_missing_values() {
 fn the_report_pairs_by_name_and_measures_the_known_error() {
     let path = temp("report.mcap");
     write_run(&path, |_, _, _| {});
-    let report = analyse(&read_log(&path).unwrap(), &Options::default()).unwrap();
+    let run = read_log(&path).unwrap();
+    let report = analyse(&run, &Options::default()).unwrap();
     assert_eq!(report.pairs.len(), 1);
     let p = &report.pairs[0];
     assert_eq!((p.truth.as_str(), p.estimate.as_str(), p.samples), ("F", "F", 2000));
@@ -113,22 +114,18 @@ fn another_estimate_channel_is_compared_when_named() {
 }
 
 #[test]
-fn a_truncated_or_corrupt_file_is_an_error_naming_it() {
+fn a_corrupt_chunk_or_a_missing_file_is_an_error_naming_it() {
     let path = temp("whole.mcap");
     write_run(&path, |_, _, _| {});
-    let bytes = std::fs::read(&path).unwrap();
-    let truncated = temp("truncated.mcap");
-    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
-    let err = read_log(&truncated).unwrap_err();
-    assert!(matches!(err, LogError::Mcap { .. }), "{err}");
-    assert!(err.to_string().contains("truncated.mcap"), "{err}");
-    let mut corrupt = bytes.clone();
+    let mut corrupt = std::fs::read(&path).unwrap();
     for b in &mut corrupt[200..400] {
         *b ^= 0x5a;
     }
     let corrupt_path = temp("corrupt.mcap");
     std::fs::write(&corrupt_path, &corrupt).unwrap();
-    assert!(read_log(&corrupt_path).unwrap_err().to_string().contains("corrupt.mcap"));
+    let err = read_log(&corrupt_path).unwrap_err();
+    assert!(matches!(err, LogError::Truncated { .. }), "{err}");
+    assert!(err.to_string().contains("corrupt.mcap"), "{err}");
     let err = read_log(&temp("absent.mcap")).unwrap_err();
     assert!(matches!(err, LogError::Io { .. }) && err.to_string().contains("absent.mcap"), "{err}");
 }
@@ -147,7 +144,7 @@ fn a_missing_channel_is_named_with_the_channels_present() {
 }
 
 #[test]
-fn a_schema_mismatch_is_named_with_its_channel() {
+fn a_channel_in_another_encoding_is_named() {
     let path = temp("cdr.mcap");
     let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
     let mut w = mcap::WriteOptions::new().create(file).unwrap();
@@ -157,7 +154,46 @@ fn a_schema_mismatch_is_named_with_its_channel() {
     w.write_to_known_channel(&header, &[0u8; 8]).unwrap();
     w.finish().unwrap();
     let err = read_log(&path).unwrap_err().to_string();
-    assert!(err.contains("channel /truth: message encoding is 'cdr', not json"), "{err}");
+    assert!(err.contains("channel /truth: message encoding is 'cdr', not ros1"), "{err}");
+}
+
+#[test]
+fn a_schema_that_is_not_float64_fields_is_named_with_its_channel() {
+    for (schema, expected) in [
+        ("int32 count", "field 'count' is int32; the format has float64 fields only"),
+        ("float64 x\nfloat64 x", "field 'x' is declared twice"),
+        ("float64 a b", "is not a field declaration"),
+        ("float64 9x", "'9x' is not a field name"),
+    ] {
+        let path = temp("bad_schema.mcap");
+        let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        let mut w = mcap::WriteOptions::new().create(file).unwrap();
+        let id = w.add_schema("kalfmu/Truth", "ros1msg", schema.as_bytes()).unwrap();
+        let channel = w.add_channel(id, TRUTH, "ros1", &BTreeMap::new()).unwrap();
+        let header = mcap::records::MessageHeader { channel_id: channel, sequence: 0, log_time: 0, publish_time: 0 };
+        w.write_to_known_channel(&header, &[0u8; 8]).unwrap();
+        w.finish().unwrap();
+        let err = read_log(&path).unwrap_err().to_string();
+        assert!(err.contains("channel /truth: ") && err.contains(expected), "{schema:?}: {err}");
+    }
+}
+
+#[test]
+fn a_message_of_the_wrong_length_is_named_with_its_channel_and_time() {
+    let path = temp("short_message.mcap");
+    let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    let mut w = mcap::WriteOptions::new().create(file).unwrap();
+    let id = w.add_schema("kalfmu/Truth", "ros1msg", b"float64 F  # [N] load\nfloat64 G").unwrap();
+    let channel = w.add_channel(id, TRUTH, "ros1", &BTreeMap::new()).unwrap();
+    let header = |t| mcap::records::MessageHeader { channel_id: channel, sequence: 0, log_time: t, publish_time: t };
+    w.write_to_known_channel(&header(0), &[0u8; 16]).unwrap();
+    w.write_to_known_channel(&header(500_000_000), &[0u8; 12]).unwrap();
+    w.finish().unwrap();
+    let err = read_log(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("channel /truth at t = 0.5 s: 12 bytes, where the schema's 2 float64 fields take 16"),
+        "{err}"
+    );
 }
 
 #[test]

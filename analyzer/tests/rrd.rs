@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
-use analyzer::read::read_log;
+use analyzer::read::{read_log, Run};
 use analyzer::report::{analyse, Options, Report};
 use analyzer::rrd::{write_rrd, TIMELINE};
 use rerun::external::re_log_encoding::DecoderApp;
@@ -109,13 +109,14 @@ impl Decoded {
     }
 }
 
-fn written(name: &str) -> (Report, Decoded, PathBuf) {
+fn written(name: &str) -> (Report<'static>, Decoded, PathBuf) {
     let log = temp(&format!("{name}.mcap"));
     write_run(&log);
-    let run = read_log(&log).unwrap();
-    let report = analyse(&run, &Options::default()).unwrap();
+    // Leaked: the report borrows the run's samples, for the whole test.
+    let run: &'static Run = Box::leak(Box::new(read_log(&log).unwrap()));
+    let report = analyse(run, &Options::default()).unwrap();
     let rrd = temp(&format!("{name}.rrd"));
-    write_rrd(&report, &run, &rrd).unwrap();
+    write_rrd(&report, run, &rrd).unwrap();
     (report, Decoded::read(&rrd), rrd)
 }
 
@@ -140,7 +141,7 @@ fn the_recording_holds_every_series_of_the_report() {
     }
     let (_, truth) = rrd.series("signals/F/truth");
     let (_, estimate) = rrd.series("signals/F/estimate");
-    assert_eq!(truth, p.truth_values, "every truth value, bit for bit");
+    assert_eq!(truth[..], p.truth_values[..], "every truth value, bit for bit");
     assert_eq!((estimate[0], estimate[1999]), (p.estimate_values[0], p.estimate_values[1999]));
     let (_, plus) = rrd.series("signals/F/plus_2sigma");
     assert_eq!(plus[0], p.estimate_values[0] + 0.2);

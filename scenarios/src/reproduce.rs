@@ -160,16 +160,15 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
                 report.write_json(&stem.with_extension("json"))?;
                 write_rrd(&report, &run, &stem.with_extension("rrd"))?;
                 let after_step = analyse(&run, &Options { estimate_topic: PREDICTION.into(), ..options })?;
-                Ok((report, after_step))
+                let (Some(pair), Some(after)) = (load_pair(&report), load_pair(&after_step)) else {
+                    bail!("the report of {} has no load pair", log.display());
+                };
+                Ok((pair.comparison, pair.psd_agreement_band, after.comparison))
             });
             let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
             match result {
-                Ok((report, after_step)) => {
-                    let (Some(pair), Some(after)) = (load_pair(&report), load_pair(&after_step)) else {
-                        bail!("the report of {} has no load pair", log.display());
-                    };
-                    let (c, a) = (&pair.comparison, &after.comparison);
-                    let band = pair.psd_agreement_band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
+                Ok((c, band, a)) => {
+                    let band = band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
                     let _ = writeln!(
                         table,
                         "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}",
@@ -202,6 +201,6 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
 }
 
 /// The report's pair of the load `F`.
-fn load_pair(report: &Report) -> Option<&PairReport> {
+fn load_pair<'a>(report: &'a Report<'_>) -> Option<&'a PairReport<'a>> {
     report.pairs.iter().find(|p| p.truth == "F")
 }
