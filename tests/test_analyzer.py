@@ -54,13 +54,14 @@ def close(value, expected, rel=REL, abs=0.0):
 
 
 def report(analyzer_bin, log, tmp_path, *args: str) -> dict:
-    """`analyzer report LOG --json OUT ARGS…`; returns the JSON report."""
+    """`analyzer report LOG --json OUT ARGS…`; returns the log's report (the
+    JSON holds one per log given, under `runs`)."""
     out = tmp_path / f"{log.stem}{'_'.join(a.strip('-') for a in args)}.json"
     proc = subprocess.run(
         [str(analyzer_bin), "report", str(log), "--json", str(out), *args], capture_output=True, text=True
     )
     assert proc.returncode == 0, proc.stderr
-    return json.loads(out.read_text())
+    return json.loads(out.read_text())["runs"][0]
 
 
 def write_pair_log(path, time, truth, estimate):

@@ -7,15 +7,17 @@
 //! `/truth` channel (`x`: two sines) and one `/estimate` channel (`x` = truth plus
 //! Gaussian noise of σ = 0.05 from a fixed-seed generator, and `x_std` = 0.05), sampled at
 //! 1 kHz. Prints the time to write the log, to read and analyse it (with samples/s), and
-//! to write the `.rrd`, with both file sizes. For peak memory run it under `/usr/bin/time -v`.
+//! to write the `.rrd`, with both file sizes. For peak memory run it under `/usr/bin/time -v`;
+//! for the figure on one core, under `taskset -c 0`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use analyzer::compare::compare_runs;
 use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, TRUTH};
 use analyzer::read::read_log;
-use analyzer::report::{analyse, Options};
+use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
 
 /// Sampling rate of the synthetic log (Hz).
@@ -71,10 +73,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("write log:      {write_s:8.2} s  {:9.1} MB  {}", size(&log), log.display());
 
     let start = Instant::now();
-    let run = read_log(&log)?;
+    let runs = [read_log(&log)?];
     let read_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let report = analyse(&run, &Options::default())?;
+    let comparison = compare_runs(&runs, &Options::default())?;
     let analyse_s = start.elapsed().as_secs_f64();
     println!(
         "read + analyse: {:8.2} s  ({read_s:.2} s + {analyse_s:.2} s)  {:.3e} samples/s",
@@ -83,9 +85,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     let start = Instant::now();
-    write_rrd(&report, &run, &rrd)?;
+    write_rrd(&comparison, &runs, &rrd)?;
     let rrd_s = start.elapsed().as_secs_f64();
     println!("write rrd:      {rrd_s:8.2} s  {:9.1} MB  {}", size(&rrd), rrd.display());
-    print!("{}", report.table());
+    print!("{}", comparison.table());
     Ok(())
 }

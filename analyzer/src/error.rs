@@ -102,6 +102,16 @@ pub enum LogError {
         /// What is wrong.
         what: String,
     },
+    /// Two runs compared do not share their truth.
+    #[error("{file} and {other} do not share their truth, so their estimates cannot be compared: {what}")]
+    NotComparable {
+        /// The run refused.
+        file: PathBuf,
+        /// The first run, whose truth the others must share.
+        other: PathBuf,
+        /// Where the truths part.
+        what: String,
+    },
     /// The Rerun recording could not be written.
     #[error("{file}: cannot write the Rerun recording: {what}")]
     Rrd {

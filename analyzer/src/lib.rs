@@ -4,17 +4,19 @@
 //! never on the estimators.
 //!
 //! ```no_run
-//! use analyzer::{read::read_log, report::{analyse, Options}};
-//! let run = read_log(std::path::Path::new("run.mcap")).unwrap();
-//! let report = analyse(&run, &Options::default()).unwrap();
-//! print!("{}", report.table());
-//! analyzer::rrd::write_rrd(&report, &run, std::path::Path::new("run.rrd")).unwrap();
+//! use analyzer::{compare::compare_runs, read::read_log, report::Options};
+//! let runs = [read_log("ckf.mcap".as_ref()).unwrap(), read_log("ukf.mcap".as_ref()).unwrap()];
+//! let comparison = compare_runs(&runs, &Options::default()).unwrap();
+//! print!("{}", comparison.table());
+//! analyzer::rrd::write_rrd(&comparison, &runs, "case.rrd".as_ref()).unwrap();
 //! ```
 
+pub mod compare;
 pub mod container;
 pub mod error;
 pub mod log;
 pub mod metrics;
+pub mod parallel;
 pub mod psd;
 pub mod read;
 pub mod report;

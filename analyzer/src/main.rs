@@ -1,7 +1,8 @@
 //! `analyzer`: metrics and recordings from kalfmu MCAP logs.
 //!
 //! Usage:
-//!   analyzer report RUN.mcap [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]… [--estimate-topic /prediction]
+//!   analyzer report RUN.mcap… [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]… [--estimate-topic /prediction]
+//!   analyzer compare RUN.mcap…   (the same: several runs of one case, compared)
 //!
 //! Exit codes: 0 done, 1 the log or the analysis failed (the message names
 //! the file, channel and time), 2 bad arguments.
@@ -9,8 +10,10 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use analyzer::read::read_log;
-use analyzer::report::{analyse, Options};
+use analyzer::compare::compare_runs;
+use analyzer::parallel;
+use analyzer::read::{read_log, Run};
+use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
 use clap::{Parser, Subcommand};
 
@@ -23,14 +26,17 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Pair estimates with truth, print the metrics, write JSON and a Rerun recording.
+    /// Pair each run's estimates with the truth, print the metrics of every run in one table
+    /// (the best marked), write JSON and one Rerun recording. Runs must share their truth.
+    #[command(visible_alias = "compare")]
     Report(ReportArgs),
 }
 
 #[derive(Debug, clap::Args)]
 struct ReportArgs {
-    /// The MCAP log.
-    log: PathBuf,
+    /// The MCAP logs: one run, or several runs of one case (same truth) to compare.
+    #[arg(required = true)]
+    logs: Vec<PathBuf>,
     /// Write the metrics as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -72,8 +78,8 @@ fn main() -> ExitCode {
 fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
     match &cli.command {
         Command::Report(args) => {
-            let run = read_log(&args.log)?;
-            if let Some(warning) = run.recovery_warning() {
+            let runs = parallel::map(&args.logs, |log| read_log(log)).into_iter().collect::<Result<Vec<_>, _>>()?;
+            for warning in runs.iter().filter_map(Run::recovery_warning) {
                 eprintln!("warning: {warning}");
             }
             let options = Options {
@@ -83,13 +89,13 @@ fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
                 estimate_topic: args.estimate_topic.clone(),
                 ..Options::default()
             };
-            let report = analyse(&run, &options)?;
-            print!("{}", report.table());
+            let comparison = compare_runs(&runs, &options)?;
+            print!("{}", comparison.table());
             if let Some(path) = &args.json {
-                report.write_json(path)?;
+                comparison.write_json(path)?;
             }
             if let Some(path) = &args.rrd {
-                write_rrd(&report, &run, path)?;
+                write_rrd(&comparison, &runs, path)?;
             }
             Ok(())
         }

@@ -16,7 +16,7 @@
 
 /// The metrics of one estimated signal against its truth.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct Comparison {
+pub struct Metrics {
     /// Pearson correlation coefficient over the whole record.
     pub correlation: f64,
     /// RMSE over the whole record.
@@ -86,20 +86,20 @@ pub fn running_rmse(a: &[f64], b: &[f64], w: usize) -> Vec<f64> {
 
 /// All metrics of `estimate` against `truth`, sampled every `dt` from the
 /// simulation time `t0`, with a running-RMSE window of `window` seconds.
-pub fn compare(truth: &[f64], estimate: &[f64], t0: f64, dt: f64, window: f64) -> Comparison {
+pub fn compare(truth: &[f64], estimate: &[f64], t0: f64, dt: f64, window: f64) -> Metrics {
     let w = ((window / dt).round() as usize).max(1);
     compare_with_running_rmse(truth, estimate, &running_rmse(truth, estimate, w), t0, dt)
 }
 
 /// [`compare`] given the running RMSE already computed (by [`running_rmse`]).
-pub fn compare_with_running_rmse(truth: &[f64], estimate: &[f64], running: &[f64], t0: f64, dt: f64) -> Comparison {
+pub fn compare_with_running_rmse(truth: &[f64], estimate: &[f64], running: &[f64], t0: f64, dt: f64) -> Metrics {
     let n = truth.len();
     let steady = rmse(&truth[n / 2..], &estimate[n / 2..]);
     let threshold = 2.0 * steady;
     let converged_from = running.iter().rposition(|&r| r > threshold).map_or(0, |k| k + 1).min(n - 1);
     let tail = &running[converged_from..];
     let mean = tail.iter().sum::<f64>() / tail.len() as f64;
-    Comparison {
+    Metrics {
         correlation: correlation(truth, estimate),
         rmse: rmse(truth, estimate),
         convergence_time: t0 + converged_from as f64 * dt,

@@ -8,14 +8,12 @@
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
-use std::path::Path;
 
 use serde::Serialize;
 
 use crate::error::LogError;
 use crate::log::{ESTIMATE, TRUTH};
-use crate::metrics::{compare_with_running_rmse, running_rmse, Comparison};
+use crate::metrics::{compare_with_running_rmse, running_rmse, Metrics};
 use crate::psd::{agreement_band, welch, Spectrum};
 use crate::read::Run;
 
@@ -60,7 +58,7 @@ pub struct PairReport<'a> {
     pub samples: usize,
     /// The metrics.
     #[serde(flatten)]
-    pub comparison: Comparison,
+    pub metrics: Metrics,
     /// Fraction of samples whose error is within ±2σ (`None` without σ).
     pub two_sigma_coverage: Option<f64>,
     /// The widest band (Hz) where the spectra agree within the threshold.
@@ -165,7 +163,7 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
         };
         let w = ((options.rmse_window / dt).round() as usize).max(1);
         let running_rmse = running_rmse(&truth_values, &estimate_values, w);
-        let comparison = compare_with_running_rmse(&truth_values, &estimate_values, &running_rmse, time[0], dt);
+        let metrics = compare_with_running_rmse(&truth_values, &estimate_values, &running_rmse, time[0], dt);
         let two_sigma_coverage = sigma.as_ref().map(|s| {
             let inside = truth_values
                 .iter()
@@ -183,7 +181,7 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             estimate: e_name,
             unit: t_signal.spec.unit.clone(),
             samples: time.len(),
-            comparison,
+            metrics,
             two_sigma_coverage,
             psd_agreement_band: agreement_band(&truth_spectrum, &estimate_spectrum, options.agreement_db),
             running_rmse,
@@ -267,59 +265,5 @@ fn merge(a: &[f64], b: &[f64], mut matched: impl FnMut(usize, usize)) {
                 j += 1;
             }
         }
-    }
-}
-
-impl Report<'_> {
-    /// The table printed by `analyzer report`.
-    pub fn table(&self) -> String {
-        let mut out = String::new();
-        let _ = writeln!(out, "{}", self.file);
-        for (k, v) in &self.metadata {
-            let _ = writeln!(out, "  {k}: {v}");
-        }
-        let _ = writeln!(
-            out,
-            "{:<12} {:>6} {:>9} {:>10} {:>10} {:>8} {:>10} {:>10} {:>8} {:>10} {:>16}",
-            "signal",
-            "unit",
-            "corr",
-            "RMSE",
-            "RMSE conv",
-            "t_conv",
-            "run. peak",
-            "run. max",
-            "2σ cov",
-            "final rel",
-            "PSD ±3 dB (Hz)"
-        );
-        for p in &self.pairs {
-            let c = &p.comparison;
-            let name = if p.truth == p.estimate { p.truth.clone() } else { format!("{}~{}", p.truth, p.estimate) };
-            let coverage = p.two_sigma_coverage.map_or("—".into(), |v| format!("{:.3}", v));
-            let band = p.psd_agreement_band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.2}"));
-            let _ = writeln!(
-                out,
-                "{:<12} {:>6} {:>9.5} {:>10.4} {:>10.4} {:>7.2}s {:>10.4} {:>10.4} {:>8} {:>10.2e} {:>16}",
-                name,
-                p.unit,
-                c.correlation,
-                c.rmse,
-                c.rmse_converged,
-                c.convergence_time,
-                c.running_rmse_peak,
-                c.running_rmse_max_converged,
-                coverage,
-                c.final_relative_error,
-                band
-            );
-        }
-        out
-    }
-
-    /// Writes the report as JSON.
-    pub fn write_json(&self, path: &Path) -> Result<(), LogError> {
-        let text = serde_json::to_string_pretty(self).expect("a report serialises");
-        std::fs::write(path, text).map_err(|source| LogError::Io { file: path.to_path_buf(), source })
     }
 }

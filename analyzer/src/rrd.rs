@@ -1,31 +1,41 @@
-//! The Rerun recording of a report (`analyzer report RUN.mcap --rrd OUT.rrd`), for
-//! the Rerun viewer 0.36.
+//! The Rerun recording of a comparison (`analyzer report RUN.mcap… --rrd OUT.rrd`; one run
+//! is a comparison of one), for the Rerun viewer 0.36.
 //!
-//! Entity paths (`<pair>` is the truth signal's name, or `X~Y` when `--pair` pairs
-//! differently named signals); series are on the `sim_time` duration timeline:
+//! Entity paths (`<signal>` is the compared truth signal's name, or `X~Y` when `--pair` pairs
+//! differently named signals; `<run>` is the run's label, its filter); series are on the
+//! `sim_time` duration timeline:
 //!
 //! | path | what |
 //! |---|---|
-//! | `signals/<pair>/truth`, `…/estimate` | the compared samples |
-//! | `signals/<pair>/plus_2sigma`, `…/minus_2sigma` | estimate ± 2σ, where σ is logged |
-//! | `errors/<pair>/error`, `…/running_rmse` | estimate − truth, and its running RMSE |
-//! | `measurements/<signal>` | what the estimator was fed; missing (NaN) samples left out |
-//! | `psd/<pair>/loglog/truth`, `…/estimate` | Welch PSDs, log-log, static (see [`PSD_VIEW`]) |
-//! | `report` | metrics table and metadata, markdown, static |
+//! | `signals/<signal>/truth` | the truth the runs share |
+//! | `signals/<signal>/<run>/estimate` | each run's estimate |
+//! | `signals/<signal>/<run>/plus_2sigma`, `…/minus_2sigma` | its ± 2σ band, where σ is logged; shown for the first run, the others' in the legend, to switch on |
+//! | `errors/<signal>/<run>` | estimate − truth |
+//! | `rmse/<signal>/<run>` | the running RMSE |
+//! | `measurements/<signal>` | what the first run's estimator was fed; missing (NaN) samples left out |
+//! | `psd/<signal>/loglog/truth`, `…/<run>` | Welch PSDs, log-log, static (see [`PSD_VIEW`]) |
+//! | `report` | the metrics tables, the runs' metadata and parameters, markdown, static |
 //!
-//! The blueprint opens one tab per pair (truth/estimate/band, error/running RMSE,
-//! PSD) beside the report and the measurements.
+//! The blueprint opens one tab per signal (truth and estimates with their bands; error and
+//! running RMSE side by side; the spectra) beside the report and the measurements.
 //!
-//! Reproducible: the recording id is the log's file name, there is no wall-clock
+//! Series longer than [`MAX_ROWS`] samples are drawn as their min/max envelope (see
+//! [`envelope_bucket`]), and the views say so: the viewer cannot show more points than it
+//! has pixels, and the log keeps every sample.
+//!
+//! Reproducible: the recording id is the logs' file names, there is no wall-clock
 //! `log_time` timeline, and the recording's chunk and row ids are counted rather than
-//! drawn at random, so writing the same report twice gives the same recording chunks.
+//! drawn at random, so writing the same comparison twice gives the same recording chunks.
 //! Only the blueprint (its own store, built by the SDK with random ids) differs.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use rerun::blueprint::components::PanelState;
 use rerun::blueprint::{
-    Blueprint, ContainerLike, Horizontal, Spatial2DView, Tabs, TextDocumentView, TimePanel, TimeSeriesView, Vertical,
+    Blueprint, BlueprintPanel, ContainerLike, Horizontal, SelectionPanel, Spatial2DView, Tabs, TextDocumentView,
+    TimePanel, TimeSeriesView, Vertical,
 };
 use rerun::log::{Chunk, ChunkId, RowId};
 use rerun::time::TimePoint;
@@ -34,11 +44,12 @@ use rerun::{
     RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TextDocument, TimeColumn, Transform3D,
 };
 
+use crate::compare::{pair_name, Comparison, COLUMNS};
 use crate::error::LogError;
 use crate::log::MEASUREMENTS;
 use crate::psd::Spectrum;
 use crate::read::Run;
-use crate::report::{PairReport, Report};
+use crate::report::PairReport;
 
 /// Application id of the recordings.
 pub const APPLICATION_ID: &str = "kalfmu";
@@ -48,33 +59,44 @@ pub const TIMELINE: &str = "sim_time";
 /// (`ChunkStoreConfig::DEFAULT`), so chunks of that size are what it would build itself,
 /// and a 10⁷-sample series never sits in one huge Arrow array.
 pub const ROWS_PER_CHUNK: usize = 4096;
+/// The most rows a series gets. Longer ones are drawn as their min/max envelope: 50 000
+/// rows keep every sample of 50 s at 1 kHz, and a 4K screen shows under 4 000 columns.
+/// With this bound the recording of a long run is far smaller than its log.
+pub const MAX_ROWS: usize = 50_000;
+/// The most decades of power a PSD view shows below its highest: lower values are drawn at
+/// that floor (and the view says so), so that a truth spectrum falling to 1e-17 does not
+/// squash everything else into a few pixels.
+pub const MAX_DECADES: f32 = 8.0;
 
 /// How the PSD views show log-log, written here once because the viewer cannot.
 ///
 /// Rerun 0.36 has no logarithmic axes: a `TimeSeriesView` plots against a timeline only
 /// (linear, integer nanoseconds or sequence numbers) and `ScalarAxis` has no log scale.
 /// So each spectrum is a 2D line strip through `(log10 f/Hz, log10 PSD/(unit²/Hz))` in a
-/// `Spatial2DView`, with decade grid lines labelled `1e<k>`: the logged coordinates are the
-/// true logarithms (hover shows them), and a static `Transform3D` on `psd/<pair>/loglog`
-/// scales the box to a 16:10 aspect and flips y, because 2D views point y down.
-/// The DC bin (f = 0) and any bin with zero power have no logarithm and are left out.
+/// `Spatial2DView`, framed, with grid lines at the decades labelled in plain numbers
+/// (`0.1 Hz`, `1 Hz`, `10 Hz`; `1e-3`): the logged coordinates are the true logarithms (hover
+/// shows them), and a static `Transform3D` on `psd/<signal>/loglog` scales the box to a 3:1
+/// aspect, as wide as the view, and flips y, because 2D views point y down. The DC bin
+/// (f = 0) and any bin with zero power have no logarithm and are left out; values more than
+/// [`MAX_DECADES`] below the highest are drawn at that floor.
 pub const PSD_VIEW: &str = "x = log10(f / Hz), y = log10(PSD / (unit²/Hz)); grid lines at decades; \
-DC bin left out; y is flipped for display so that power grows upward";
+DC bin left out; at most 8 decades shown, lower values drawn at the floor; y is flipped for display so that power grows upward";
 
 /// Time part of the counted row and chunk ids (a fixed instant instead of the wall clock).
 const ID_TIME_NS: u128 = 1;
-/// Plot box of the PSD views (scene units after the transform).
-const PSD_WIDTH: f32 = 16.0;
+/// Plot box of the PSD views (scene units after the transform): 3:1, the shape of the view.
+const PSD_WIDTH: f32 = 30.0;
 const PSD_HEIGHT: f32 = 10.0;
 
-/// Writes the Rerun recording of `report` (and of `run`'s measurements) to `path`.
+/// Writes the Rerun recording of `comparison` (and of the first run's measurements) to `path`;
+/// `runs` are the runs compared, in the same order.
 ///
 /// Fails, naming `path`, if the file cannot be written, or if the `RERUN` environment
 /// variable is `off`/`0`/`false`. Under that variable the SDK's streams write nothing
 /// and report success; the recording stream here is forced on, but the SDK builds the
 /// blueprint through a stream of its own that still obeys the variable (and then panics
 /// in 0.36.3), so this refuses with a clear error instead.
-pub fn write_rrd(report: &Report, run: &Run, path: &Path) -> Result<(), LogError> {
+pub fn write_rrd(comparison: &Comparison, runs: &[Run], path: &Path) -> Result<(), LogError> {
     let fail = |what: String| LogError::Rrd { file: path.to_path_buf(), what };
     if !rerun::decide_logging_enabled(true) {
         return Err(fail(format!(
@@ -82,31 +104,36 @@ pub fn write_rrd(report: &Report, run: &Run, path: &Path) -> Result<(), LogError
             std::env::var("RERUN").unwrap_or_default()
         )));
     }
-    let log_name = run.file.file_name().map_or_else(|| run.file.display().to_string(), |n| n.to_string_lossy().into());
+    let names: Vec<String> = runs
+        .iter()
+        .map(|r| r.file.file_name().map_or_else(|| r.file.display().to_string(), |n| n.to_string_lossy().into()))
+        .collect();
+    let recording_id = names.join(" + ");
     let rec = RecordingStreamBuilder::new(APPLICATION_ID)
-        .recording_id(log_name.clone())
+        .recording_id(recording_id.clone())
         // Explicitly on, so that RERUN=off cannot turn this stream into a no-op.
         .enabled(true)
-        .with_blueprint(blueprint(report, run))
+        .with_blueprint(blueprint(comparison, runs))
         .save(path)
         .map_err(|e| fail(e.to_string()))?;
     rec.set_log_time_enabled(false);
     rec.set_log_tick_enabled(false);
     let mut recording = Recording { rec, path, next_id: 0 };
-    recording.static_row(EntityPath::properties(), &RecordingInfo::update_fields().with_name(log_name))?;
+    recording.static_row(EntityPath::properties(), &RecordingInfo::update_fields().with_name(recording_id))?;
     recording.static_row(
         EntityPath::from("report"),
-        &TextDocument::new(markdown(report)).with_media_type(MediaType::markdown()),
+        &TextDocument::new(markdown(comparison)).with_media_type(MediaType::markdown()),
     )?;
-    for pair in &report.pairs {
-        recording.pair(pair)?;
+    for k in 0..comparison.runs.first().map_or(0, |r| r.pairs.len()) {
+        let pairs: Vec<&PairReport> = comparison.runs.iter().map(|r| &r.pairs[k]).collect();
+        recording.signal(&pairs, &comparison.labels)?;
     }
-    if let Ok(channel) = run.channel(MEASUREMENTS) {
+    if let Some(channel) = runs.first().and_then(|r| r.channel(MEASUREMENTS).ok()) {
         for signal in &channel.signals {
             let entity = entity(&["measurements", &signal.spec.name]);
             let label = with_unit(&signal.spec.name, &signal.spec.unit);
-            recording.style(&entity, &label, None, 1.0)?;
-            recording.series(&entity, &channel.time, signal.values.iter().copied())?;
+            recording.style(&entity, &[Line { name: label, color: None, width: 1.0, shown: true }])?;
+            recording.series(&entity, &channel.time, &[&signal.values])?;
         }
     }
     let Recording { rec, .. } = recording;
@@ -125,15 +152,6 @@ fn entity(parts: &[&str]) -> EntityPath {
     EntityPath::new(parts.iter().map(|p| EntityPathPart::new(*p)).collect())
 }
 
-/// The name of a pair in entity paths and views.
-fn pair_name(p: &PairReport) -> String {
-    if p.truth == p.estimate {
-        p.truth.clone()
-    } else {
-        format!("{}~{}", p.truth, p.estimate)
-    }
-}
-
 fn with_unit(name: &str, unit: &str) -> String {
     if unit.is_empty() {
         name.to_string()
@@ -142,24 +160,64 @@ fn with_unit(name: &str, unit: &str) -> String {
     }
 }
 
+/// Samples per bucket of the min/max envelope of an `n`-sample series (1: every sample).
+pub fn envelope_bucket(n: usize) -> usize {
+    if n <= MAX_ROWS {
+        1
+    } else {
+        n.div_ceil(MAX_ROWS / 2)
+    }
+}
+
+/// The view-title note for a series of `n` samples drawn as an envelope.
+fn envelope_note(n: usize) -> String {
+    match envelope_bucket(n) {
+        1 => String::new(),
+        b => format!(" — min/max of every {b} samples (the log has all)"),
+    }
+}
+
+/// The look of one line of a series.
+struct Line {
+    name: String,
+    /// `None`: the viewer's colour for the entity.
+    color: Option<Color>,
+    width: f32,
+    /// Drawn, or only listed in the legend (to switch on there).
+    shown: bool,
+}
+
+impl Line {
+    fn new(name: String, color: Color, width: f32, shown: bool) -> Self {
+        Self { name, color: Some(color), width, shown }
+    }
+}
+
+/// The truth's colour: light grey, drawn under the runs.
 fn truth_color() -> Color {
-    Color::from_rgb(31, 119, 180)
+    Color::from_rgb(225, 225, 225)
 }
 
-fn estimate_color() -> Color {
-    Color::from_rgb(255, 127, 14)
+/// Run `i`'s colour (matplotlib's tab10 without its grey).
+fn run_color(i: usize) -> Color {
+    const PALETTE: [(u8, u8, u8); 9] = [
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (23, 190, 207),
+        (227, 119, 194),
+        (188, 189, 34),
+        (140, 86, 75),
+        (31, 119, 180),
+    ];
+    let (r, g, b) = PALETTE[i % PALETTE.len()];
+    Color::from_rgb(r, g, b)
 }
 
-fn band_color() -> Color {
-    Color::from_unmultiplied_rgba(255, 127, 14, 110)
-}
-
-fn error_color() -> Color {
-    Color::from_rgb(214, 39, 40)
-}
-
-fn rmse_color() -> Color {
-    Color::from_rgb(148, 103, 189)
+fn band_color(i: usize) -> Color {
+    let [r, g, b, _] = run_color(i).to_array();
+    Color::from_unmultiplied_rgba(r, g, b, 120)
 }
 
 fn grid_color() -> Color {
@@ -197,37 +255,64 @@ impl Recording<'_> {
         Ok(())
     }
 
-    /// Names, colours and widens the line of the series at `entity`.
-    fn style(&mut self, entity: &EntityPath, name: &str, color: Option<Color>, width: f32) -> Result<(), LogError> {
-        let mut lines = SeriesLines::new().with_names([name]).with_widths([width]);
-        if let Some(color) = color {
-            lines = lines.with_colors([color]);
+    /// Names, colours and widens the lines of the series at `entity` (one per scalar of a row),
+    /// each shown or only in the legend.
+    fn style(&mut self, entity: &EntityPath, lines: &[Line]) -> Result<(), LogError> {
+        let mut style = SeriesLines::new()
+            .with_names(lines.iter().map(|l| l.name.clone()))
+            .with_widths(lines.iter().map(|l| l.width))
+            .with_visible_series(lines.iter().map(|l| l.shown));
+        if let Some(colors) = lines.iter().map(|l| l.color).collect::<Option<Vec<Color>>>() {
+            style = style.with_colors(colors);
         }
-        self.static_row(entity.clone(), &lines)
+        self.static_row(entity.clone(), &style)
     }
 
-    /// Sends a series on the `sim_time` timeline in chunks of [`ROWS_PER_CHUNK`] rows,
-    /// leaving out samples that are not finite. Returns the number of rows sent.
-    fn series(
-        &mut self,
-        entity: &EntityPath,
-        time: &[f64],
-        values: impl IntoIterator<Item = f64>,
-    ) -> Result<usize, LogError> {
+    /// Sends series at `entity` on the `sim_time` timeline, one row per time with a scalar of
+    /// each column, in chunks of [`ROWS_PER_CHUNK`] rows; rows with a value that is not finite
+    /// are left out. A long series goes as its min/max envelope: of every [`envelope_bucket`]
+    /// rows, one of each column's smallest value at the bucket's first time and one of its
+    /// largest at its last. Returns the number of rows sent.
+    fn series(&mut self, entity: &EntityPath, time: &[f64], columns: &[&[f64]]) -> Result<usize, LogError> {
+        let n = columns.iter().map(|c| c.len()).fold(time.len(), usize::min);
+        let bucket = envelope_bucket(n);
         let mut times = Vec::with_capacity(ROWS_PER_CHUNK);
-        let mut scalars = Vec::with_capacity(ROWS_PER_CHUNK);
+        let mut scalars = Vec::with_capacity(ROWS_PER_CHUNK * columns.len());
         let mut n_rows = 0;
-        for (&t, v) in time.iter().zip(values) {
-            if !v.is_finite() {
-                continue;
+        let mut k = 0;
+        while k < n {
+            let end = (k + bucket).min(n);
+            if bucket == 1 {
+                if columns.iter().all(|c| c[k].is_finite()) {
+                    times.push(time[k]);
+                    scalars.extend(columns.iter().map(|c| c[k]));
+                }
+            } else {
+                let finite = |c: &[f64]| c[k..end].iter().copied().filter(|v| v.is_finite()).collect::<Vec<_>>();
+                let extremes: Vec<(f64, f64)> = columns
+                    .iter()
+                    .map(|c| finite(c))
+                    .filter(|v| !v.is_empty())
+                    .map(|v| {
+                        (
+                            v.iter().copied().fold(f64::INFINITY, f64::min),
+                            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                        )
+                    })
+                    .collect();
+                if extremes.len() == columns.len() {
+                    times.push(time[k]);
+                    scalars.extend(extremes.iter().map(|e| e.0));
+                    times.push(time[end - 1]);
+                    scalars.extend(extremes.iter().map(|e| e.1));
+                }
             }
-            times.push(t);
-            scalars.push(v);
-            if times.len() == ROWS_PER_CHUNK {
+            if times.len() >= ROWS_PER_CHUNK {
                 n_rows += self.send_rows(entity, &times, &scalars)?;
                 times.clear();
                 scalars.clear();
             }
+            k = end;
         }
         if !times.is_empty() {
             n_rows += self.send_rows(entity, &times, &scalars)?;
@@ -235,14 +320,16 @@ impl Recording<'_> {
         Ok(n_rows)
     }
 
-    /// One chunk of a series: the columnar equivalent of `send_columns`, with counted ids.
+    /// One chunk of series: the columnar equivalent of `send_columns`, with counted ids;
+    /// `values` holds the rows one after the other, each of the same number of scalars.
     fn send_rows(&mut self, entity: &EntityPath, times: &[f64], values: &[f64]) -> Result<usize, LogError> {
+        let width = values.len() / times.len().max(1);
         let chunk_id = ChunkId::from_u128(self.next_id());
         let row_ids: Vec<RowId> = times.iter().map(|_| RowId::from_u128(self.next_id())).collect();
         let time = TimeColumn::new_duration_secs(TIMELINE, times.iter().copied());
         let timelines = std::iter::once((*time.timeline().name(), time)).collect();
         let components = Scalars::new(values.iter().copied())
-            .columns_of_unit_batches()
+            .columns(std::iter::repeat_n(width, times.len()))
             .map_err(|e| self.fail(e))?
             .map(|column| (column.descriptor, column.list_array))
             .collect();
@@ -252,107 +339,133 @@ impl Recording<'_> {
         Ok(times.len())
     }
 
-    /// Everything of one pair: signals, band, error, running RMSE, spectra.
-    fn pair(&mut self, p: &PairReport) -> Result<(), LogError> {
-        let name = pair_name(p);
-        let signals = |leaf: &str| entity(&["signals", &name, leaf]);
-        let errors = |leaf: &str| entity(&["errors", &name, leaf]);
-        let unit = |s: &str| with_unit(s, &p.unit);
-
-        let truth = signals("truth");
-        self.style(&truth, &unit(&format!("truth {}", p.truth)), Some(truth_color()), 1.5)?;
-        self.series(&truth, &p.time, p.truth_values.iter().copied())?;
-        let estimate = signals("estimate");
-        self.style(&estimate, &unit(&format!("estimate {}", p.estimate)), Some(estimate_color()), 1.0)?;
-        self.series(&estimate, &p.time, p.estimate_values.iter().copied())?;
-        if let Some(sigma) = &p.sigma {
-            let plus = signals("plus_2sigma");
-            self.style(&plus, &unit("estimate + 2σ"), Some(band_color()), 0.75)?;
-            self.series(&plus, &p.time, p.estimate_values.iter().zip(sigma.iter()).map(|(e, s)| e + 2.0 * s))?;
-            let minus = signals("minus_2sigma");
-            self.style(&minus, &unit("estimate − 2σ"), Some(band_color()), 0.75)?;
-            self.series(&minus, &p.time, p.estimate_values.iter().zip(sigma.iter()).map(|(e, s)| e - 2.0 * s))?;
+    /// Everything of one compared signal, each view's lines as one entity with a scalar per
+    /// line and row: the truth and the runs' estimates and bands; their errors; their running
+    /// RMSEs; and the spectra.
+    fn signal(&mut self, pairs: &[&PairReport], labels: &[String]) -> Result<(), LogError> {
+        let first = pairs[0];
+        let name = pair_name(first);
+        let runs = || pairs.iter().zip(labels).enumerate();
+        let mut lines = vec![Line::new(format!("truth {}", first.truth), truth_color(), 2.0, true)];
+        let mut columns: Vec<&[f64]> = vec![&first.truth_values];
+        for (i, (p, label)) in runs() {
+            lines.push(Line::new(format!("{label} {}", p.estimate), run_color(i), 1.0, true));
+            columns.push(&p.estimate_values);
         }
+        let bands: Vec<Vec<f64>> = runs()
+            .filter_map(|(_, (p, _))| p.sigma.as_ref().map(|sigma| (p, sigma)))
+            .flat_map(|(p, sigma)| {
+                [1.0, -1.0]
+                    .map(|sign| p.estimate_values.iter().zip(sigma.iter()).map(|(e, s)| e + sign * 2.0 * s).collect())
+            })
+            .collect();
+        for (i, (_, label)) in runs().filter(|(_, (p, _))| p.sigma.is_some()) {
+            // The first run's band is shown; the others' are in the legend, to switch on.
+            // One name for both edges: the legend lists (and switches) them as one entry.
+            lines.push(Line::new(format!("{label} ± 2σ"), band_color(i), 0.75, i == 0));
+            lines.push(Line::new(format!("{label} ± 2σ"), band_color(i), 0.75, i == 0));
+        }
+        columns.extend(bands.iter().map(Vec::as_slice));
+        let signals = entity(&["signals", &name]);
+        self.style(&signals, &lines)?;
+        self.series(&signals, &first.time, &columns)?;
 
-        let error = errors("error");
-        self.style(&error, &unit("error (estimate − truth)"), Some(error_color()), 1.0)?;
-        self.series(&error, &p.time, p.estimate_values.iter().zip(p.truth_values.iter()).map(|(e, t)| e - t))?;
-        let rmse = errors("running_rmse");
-        self.style(&rmse, &unit("running RMSE"), Some(rmse_color()), 1.5)?;
-        self.series(&rmse, &p.time, p.running_rmse.iter().copied())?;
-
-        self.spectra(&name, p)
+        let errors: Vec<Vec<f64>> = pairs
+            .iter()
+            .map(|p| p.estimate_values.iter().zip(p.truth_values.iter()).map(|(e, t)| e - t).collect())
+            .collect();
+        let run_lines: Vec<Line> =
+            runs().map(|(i, (_, label))| Line::new(label.clone(), run_color(i), 1.0, true)).collect();
+        let errors_entity = entity(&["errors", &name]);
+        self.style(&errors_entity, &run_lines)?;
+        self.series(&errors_entity, &first.time, &errors.iter().map(Vec::as_slice).collect::<Vec<_>>())?;
+        let rmse_entity = entity(&["rmse", &name]);
+        self.style(&rmse_entity, &run_lines)?;
+        self.series(&rmse_entity, &first.time, &pairs.iter().map(|p| p.running_rmse.as_slice()).collect::<Vec<_>>())?;
+        self.spectra(&name, pairs, labels)
     }
 
-    /// The two spectra of a pair, log-log (see [`PSD_VIEW`]), with their decade grid.
-    fn spectra(&mut self, name: &str, p: &PairReport) -> Result<(), LogError> {
-        let truth = log_log(&p.truth_spectrum);
-        let estimate = log_log(&p.estimate_spectrum);
+    /// The spectra of a signal, log-log (see [`PSD_VIEW`]): the truth's and each run's, with
+    /// their frame, decade grid and tick labels.
+    fn spectra(&mut self, name: &str, pairs: &[&PairReport], labels: &[String]) -> Result<(), LogError> {
+        let mut curves = vec![("truth".to_string(), log_log(&pairs[0].truth_spectrum), truth_color())];
+        for (i, (p, label)) in pairs.iter().zip(labels).enumerate() {
+            curves.push((label.clone(), log_log(&p.estimate_spectrum), run_color(i)));
+        }
         let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) =
             (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
-        for &[x, y] in truth.iter().chain(&estimate) {
+        for &[x, y] in curves.iter().flat_map(|c| &c.1) {
             (x_lo, x_hi, y_lo, y_hi) = (x_lo.min(x), x_hi.max(x), y_lo.min(y), y_hi.max(y));
         }
         if x_lo > x_hi {
             return Ok(());
         }
-        // Whole decades of power, at least one.
-        let y_lo = y_lo.floor();
-        let y_hi = y_hi.ceil().max(y_lo + 1.0);
+        // Whole decades of power, at least one, at most MAX_DECADES.
+        let y_hi = y_hi.ceil();
+        let y_lo = y_lo.floor().clamp(y_hi - MAX_DECADES, y_hi - 1.0);
+        let (width, height) = ((x_hi - x_lo).max(0.1), y_hi - y_lo);
 
         let loglog = entity(&["psd", name, "loglog"]);
-        let scale = [PSD_WIDTH / (x_hi - x_lo).max(0.1), -PSD_HEIGHT / (y_hi - y_lo), 1.0];
-        self.static_row(loglog.clone(), &Transform3D::from_scale(scale))?;
+        self.static_row(loglog.clone(), &Transform3D::from_scale([PSD_WIDTH / width, -PSD_HEIGHT / height, 1.0]))?;
 
-        // The frame, vertical lines at the decades of f, horizontal ones at the decades of the PSD.
+        // The frame, vertical lines at the decades of f, horizontal ones at the decades of the
+        // PSD, the frequencies under the frame and the powers left of it. The viewer hangs a
+        // point's label under the point, so the powers' points are raised by about half a
+        // label's height (a twentieth of the box at the usual sizes): each number sits level
+        // with its grid line.
         let mut grid = vec![vec![[x_lo, y_lo], [x_hi, y_lo], [x_hi, y_hi], [x_lo, y_hi], [x_lo, y_lo]]];
         let mut positions = Vec::new();
         let mut labels = Vec::new();
+        let below = y_lo - 0.04 * height;
         let decades: Vec<i32> = (x_lo.ceil() as i32..=x_hi.floor() as i32).collect();
         for &k in &decades {
             grid.push(vec![[k as f32, y_lo], [k as f32, y_hi]]);
-            positions.push([k as f32, y_lo]);
-            labels.push(format!("1e{k} Hz"));
+            positions.push([k as f32, below]);
+            labels.push(format!("{} Hz", decade(k)));
         }
         if decades.len() < 2 {
             for x in [x_lo, x_hi] {
-                positions.push([x, y_lo]);
-                labels.push(format!("{:.3e} Hz", 10f64.powf(f64::from(x))));
+                positions.push([x, below]);
+                labels.push(format!("{:.3} Hz", 10f64.powf(f64::from(x))));
             }
         }
-        let psd_unit = if p.unit.is_empty() { "1/Hz".to_string() } else { format!("{}²/Hz", p.unit) };
-        let n_decades = (y_hi - y_lo) as i32;
-        let step = (n_decades / 12).max(1);
-        for j in (y_lo as i32..=y_hi as i32).step_by(step as usize) {
+        for j in y_lo as i32..=y_hi as i32 {
             grid.push(vec![[x_lo, j as f32], [x_hi, j as f32]]);
-            positions.push([x_lo, j as f32]);
-            labels.push(format!("1e{j} {psd_unit}"));
+            positions.push([x_lo - 0.05 * width, j as f32 + 0.05 * height]);
+            labels.push(format!("1e{j}"));
         }
         self.static_row(
-            loglog.clone(),
+            entity(&["psd", name, "loglog", "grid"]),
             &LineStrips2D::new(grid).with_colors([grid_color()]).with_radii([Radius::new_ui_points(0.5)]),
         )?;
         self.static_row(
-            entity(&["psd", name, "loglog", "axes"]),
+            entity(&["psd", name, "loglog", "ticks"]),
             &Points2D::new(positions)
                 .with_labels(labels)
                 .with_show_labels(true)
                 .with_colors([grid_color()])
-                .with_radii([Radius::new_ui_points(1.0)]),
+                .with_radii([Radius::new_ui_points(0.0)]),
         )?;
-        for (leaf, points, color) in [("truth", truth, truth_color()), ("estimate", estimate, estimate_color())] {
+        for (label, points, color) in curves {
             if points.is_empty() {
                 continue;
             }
+            let clipped: Vec<[f32; 2]> = points.iter().map(|&[x, y]| [x, y.max(y_lo)]).collect();
             self.static_row(
-                entity(&["psd", name, "loglog", leaf]),
-                &LineStrips2D::new([points])
-                    .with_colors([color])
-                    .with_radii([Radius::new_ui_points(1.0)])
-                    .with_labels([leaf]),
+                entity(&["psd", name, "loglog", &label]),
+                &LineStrips2D::new([clipped]).with_colors([color]).with_radii([Radius::new_ui_points(1.0)]),
             )?;
         }
         Ok(())
+    }
+}
+
+/// 10^k as people write it: `0.01`, `0.1`, `1`, `10`, `1000`.
+fn decade(k: i32) -> String {
+    if k >= 0 {
+        format!("{}", 10u64.pow(k.min(18) as u32))
+    } else {
+        format!("0.{}1", "0".repeat((-k - 1) as usize))
     }
 }
 
@@ -367,27 +480,83 @@ fn log_log(s: &Spectrum) -> Vec<[f32; 2]> {
         .collect()
 }
 
-/// The report as markdown: the metrics table, the settings, the metadata, the views.
-fn markdown(report: &Report) -> String {
-    let cell = |s: &str| s.replace('|', "\\|").replace('\n', " ");
+/// A markdown table cell.
+fn cell(s: &str) -> String {
+    s.replace('|', "\\|").replace('\n', " ")
+}
+
+/// The comparison as markdown: a metrics table per signal (best in bold), the runs'
+/// metadata and parameters as a table (a column per run), the views.
+fn markdown(comparison: &Comparison) -> String {
+    let labels = &comparison.labels;
+    let several = labels.len() > 1;
     let mut md = String::new();
-    let _ = writeln!(md, "# kalfmu report: {}\n", cell(&report.file));
-    let _ = writeln!(md, "## Metrics\n\n```text\n{}```\n", report.table());
+    let title = if several { format!("{} runs compared", labels.len()) } else { "report".to_string() };
+    let _ = writeln!(md, "# kalfmu {title}\n");
+    let Some(first) = comparison.runs.first() else { return md };
     let _ = writeln!(
         md,
-        "Running RMSE over {} s; Welch segments of {} samples; spectra agree within ±{} dB.\n",
-        report.rmse_window, report.psd_segment, report.agreement_db
+        "Running RMSE over {} s; Welch segments of {} samples; spectra agree within ±{} dB. {}\n",
+        first.rmse_window,
+        first.psd_segment,
+        first.agreement_db,
+        if several { "**Bold**: the best of the runs (2σ coverage: nearest 0.9545; PSD band: widest)." } else { "" }
     );
-    let _ = writeln!(md, "## Metadata\n\n| key | value |\n|---|---|");
-    for (k, v) in &report.metadata {
-        let _ = writeln!(md, "| {} | {} |", cell(k), cell(v));
+    for k in 0..first.pairs.len() {
+        let pairs: Vec<&PairReport> = comparison.runs.iter().map(|r| &r.pairs[k]).collect();
+        let p = pairs[0];
+        let _ = writeln!(
+            md,
+            "## {}\n\n{} samples, t = {} to {} s{}.\n",
+            cell(&with_unit(&pair_name(p), &p.unit)),
+            p.samples,
+            p.time.first().copied().unwrap_or(0.0),
+            p.time.last().copied().unwrap_or(0.0),
+            envelope_note(p.samples)
+        );
+        // A row per metric and a column per run: it fits the side panel.
+        let _ = write!(md, "| metric |");
+        for label in labels {
+            let _ = write!(md, " {} |", cell(label));
+        }
+        let _ = writeln!(md, "\n|---|{}", "---:|".repeat(labels.len()));
+        for column in &COLUMNS {
+            let best = column.best(&pairs);
+            let _ = write!(md, "| {} |", column.heading);
+            for (i, pair) in pairs.iter().enumerate() {
+                let text = (column.text)(pair);
+                if several && best == Some(i) {
+                    let _ = write!(md, " **{text}** |");
+                } else {
+                    let _ = write!(md, " {text} |");
+                }
+            }
+            md.push('\n');
+        }
+        md.push('\n');
+    }
+    let _ = writeln!(md, "## Runs\n");
+    let _ = write!(md, "| |");
+    for label in labels {
+        let _ = write!(md, " {} |", cell(label));
+    }
+    let _ = writeln!(md, "\n|---|{}", "---|".repeat(labels.len()));
+    for (key, values) in metadata_rows(comparison) {
+        let _ = write!(md, "| {} |", cell(&key));
+        for v in values {
+            let _ = write!(md, " {} |", cell(&v));
+        }
+        md.push('\n');
     }
     let _ = writeln!(
         md,
-        "\n## Views\n\n- `signals/<pair>`: truth, estimate and estimate ± 2σ, on `{TIMELINE}` (s).\n\
-         - `errors/<pair>`: estimate − truth and its running RMSE.\n\
-         - `psd/<pair>/loglog`: Welch PSDs, {PSD_VIEW}.\n\
-         - `measurements/<signal>`: the estimator's inputs; missing samples are left out.\n"
+        "\n## Views\n\n- `signals/<signal>`: the truth and each run's estimate with its ± 2σ band (the first run's \
+         shown; click a legend entry to show or hide a line), on `{TIMELINE}` (s).\n\
+         - `errors/<signal>`, `rmse/<signal>`: each run's estimate − truth and its running RMSE.\n\
+         - `psd/<signal>/loglog`: Welch PSDs, {PSD_VIEW}.\n\
+         - `measurements/<signal>`: the first run's estimator inputs; missing samples are left out.\n\
+         - Series longer than {MAX_ROWS} samples are drawn as their min/max envelope: of every few samples, \
+         the smallest and the largest at their own times (the view's title says how many); the log has them all.\n"
     );
     let _ = writeln!(
         md,
@@ -398,37 +567,99 @@ fn markdown(report: &Report) -> String {
     md
 }
 
-/// One tab per pair (signals, errors, PSD), beside the report and the measurements.
-fn blueprint(report: &Report, run: &Run) -> Blueprint {
-    let tabs: Vec<ContainerLike> = report
-        .pairs
+/// The rows of the runs' table: the log file, each metadata key, and each parameter of the
+/// `parameters` JSON object on a row of its own; one value per run (empty where absent).
+fn metadata_rows(comparison: &Comparison) -> Vec<(String, Vec<String>)> {
+    let runs = &comparison.runs;
+    let mut rows = vec![("log".to_string(), runs.iter().map(|r| r.file.clone()).collect())];
+    let mut keys: Vec<&String> = runs.iter().flat_map(|r| r.metadata.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let parameters: Vec<BTreeMap<String, String>> = runs
+        .iter()
+        .map(|r| {
+            let object = r.metadata.get("parameters").and_then(|p| serde_json::from_str::<serde_json::Value>(p).ok());
+            match object {
+                Some(serde_json::Value::Object(map)) => map
+                    .into_iter()
+                    .map(|(k, v)| (k, v.as_str().map_or_else(|| v.to_string(), str::to_string)))
+                    .collect(),
+                _ => BTreeMap::new(),
+            }
+        })
+        .collect();
+    for key in keys {
+        let expanded = key == "parameters" && parameters.iter().any(|p| !p.is_empty());
+        if !expanded {
+            rows.push((key.clone(), runs.iter().map(|r| r.metadata.get(key).cloned().unwrap_or_default()).collect()));
+        }
+    }
+    let mut names: Vec<&String> = parameters.iter().flat_map(|p| p.keys()).collect();
+    names.sort();
+    names.dedup();
+    for name in names {
+        rows.push((
+            format!("parameter `{name}`"),
+            parameters.iter().map(|p| p.get(name).cloned().unwrap_or_default()).collect(),
+        ));
+    }
+    rows
+}
+
+/// One tab per signal (the signals with their bands; error and running RMSE side by side;
+/// the spectra), beside the report and the measurements.
+fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
+    let first = comparison.runs.first();
+    let window = first.map_or(0.0, |r| r.rmse_window);
+    let tabs: Vec<ContainerLike> = first
+        .map(|r| r.pairs.as_slice())
+        .unwrap_or_default()
         .iter()
         .map(|p| {
             let name = pair_name(p);
-            let signals = if p.sigma.is_some() { "truth, estimate ± 2σ" } else { "truth, estimate" };
+            let titled = with_unit(&name, &p.unit);
+            let note = envelope_note(p.samples);
+            let bands = if p.sigma.is_some() { " ± 2σ" } else { "" };
+            let psd_unit = if p.unit.is_empty() { "1/Hz".to_string() } else { format!("{}²/Hz", p.unit) };
             Vertical::new([
-                TimeSeriesView::new(format!("{}: {signals}", with_unit(&name, &p.unit)))
+                TimeSeriesView::new(format!("{titled}: truth and estimates{bands}{note}"))
                     .with_origin(entity(&["signals", &name]))
                     .into(),
-                TimeSeriesView::new(format!("{}: error, running RMSE", with_unit(&name, &p.unit)))
-                    .with_origin(entity(&["errors", &name]))
-                    .into(),
-                Spatial2DView::new(format!("{name}: PSD truth vs estimate (log-log)"))
-                    .with_origin(entity(&["psd", &name]))
-                    .into(),
+                Horizontal::new([
+                    TimeSeriesView::new(format!("{titled}: error (estimate − truth){note}"))
+                        .with_origin(entity(&["errors", &name]))
+                        .into(),
+                    TimeSeriesView::new(format!("{titled}: running RMSE over {window} s{note}"))
+                        .with_origin(entity(&["rmse", &name]))
+                        .into(),
+                ])
+                .into(),
+                Spatial2DView::new(format!(
+                    "{name}: PSD [{psd_unit}] against frequency [Hz], log-log, {MAX_DECADES} decades at most"
+                ))
+                .with_origin(entity(&["psd", &name]))
+                .into(),
             ])
             .with_name(name)
-            .with_row_shares([2.0, 1.0, 1.5])
+            .with_row_shares([2.0, 1.3, 1.7])
             .into()
         })
         .collect();
     let mut side: Vec<ContainerLike> = vec![TextDocumentView::new("report").with_origin("report").into()];
-    if run.channel(MEASUREMENTS).is_ok() {
-        side.push(TimeSeriesView::new("measurements").with_origin("measurements").into());
+    if let Some(first_run) = runs.first().filter(|r| r.channel(MEASUREMENTS).is_ok()) {
+        let title = match comparison.labels.first() {
+            Some(label) if runs.len() > 1 => format!("measurements (as fed to {label}; {})", first_run.file.display()),
+            _ => "measurements".to_string(),
+        };
+        side.push(TimeSeriesView::new(title).with_origin("measurements").into());
     }
-    let root = Horizontal::new([Tabs::new(tabs).into(), Vertical::new(side).into()]).with_column_shares([3.0, 2.0]);
+    let side = Vertical::new(side).with_row_shares([3.0, 2.0]);
+    let root = Horizontal::new([Tabs::new(tabs).into(), side.into()]).with_column_shares([3.0, 2.0]);
+    // The side panels start collapsed: the views get the window.
     Blueprint::new(root)
         .with_auto_views(false)
         .with_auto_layout(false)
-        .with_time_panel(TimePanel::new().with_timeline(TIMELINE))
+        .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
+        .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed))
+        .with_time_panel(TimePanel::new().with_timeline(TIMELINE).with_state(PanelState::Collapsed))
 }

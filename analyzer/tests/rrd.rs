@@ -1,17 +1,18 @@
-//! The Rerun recording holds what the report computed: written from a small log, then
+//! The Rerun recording holds what the comparison computed: written from small logs, then
 //! read back with Rerun's own decoder (`re_log_encoding`, `Chunk::from_arrow_msg`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use analyzer::compare::{compare_runs, Comparison};
 use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
 use analyzer::read::{read_log, Run};
-use analyzer::report::{analyse, Options, Report};
-use analyzer::rrd::{write_rrd, TIMELINE};
+use analyzer::report::Options;
+use analyzer::rrd::{envelope_bucket, write_rrd, MAX_ROWS, TIMELINE};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
 use rerun::log::{Chunk, LogMsg};
-use rerun::{EntityPath, Scalars, StoreKind, TextDocument};
+use rerun::{EntityPath, Scalars, SeriesLines, StoreKind, TextDocument};
 
 fn temp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("kalfmu-analyzer-rrd-{}", std::process::id()));
@@ -19,11 +20,16 @@ fn temp(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// 20 s at 100 Hz: truth `F = 10 sin(2π·1.5 t)`, estimate = truth + a small
-/// deterministic error, σ = 0.1, and a measurement with one missing value.
-fn write_run(path: &Path) {
-    let metadata =
-        BTreeMap::from([("study".to_string(), "rrd test".to_string()), ("seed".to_string(), "7".to_string())]);
+/// `n` samples at 100 Hz: truth `F = 10 sin(2π·1.5 t)`, the estimate of filter `filter` =
+/// truth + a small deterministic error scaled by `error`, σ = 0.1, and a measurement with
+/// one missing value.
+fn write_run(path: &Path, filter: &str, error: f64, n: usize) {
+    let metadata = BTreeMap::from([
+        ("study".to_string(), "rrd test".to_string()),
+        ("seed".to_string(), "7".to_string()),
+        ("filter".to_string(), filter.to_string()),
+        ("parameters".to_string(), format!("{{\"q_std\":{error},\"kind\":\"{filter}\"}}")),
+    ]);
     let mut w = LogWriter::create(path, &metadata).unwrap();
     let m = w.add_channel(MEASUREMENTS, &[SignalSpec::new("a", "m/s2", "acceleration")]).unwrap();
     let t = w.add_channel(TRUTH, &[SignalSpec::new("F", "N", "true load")]).unwrap();
@@ -33,10 +39,10 @@ fn write_run(path: &Path) {
             &[SignalSpec::new("F", "N", "estimated load"), SignalSpec::new("F_std", "N", "its deviation")],
         )
         .unwrap();
-    for k in 0..2000 {
+    for k in 0..n {
         let time = k as f64 * 0.01;
         let truth = 10.0 * (2.0 * std::f64::consts::PI * 1.5 * time).sin();
-        let estimate = truth + 0.05 * ((k * 7919 % 13) as f64 - 6.0) / 6.0;
+        let estimate = truth + error * ((k * 7919 % 13) as f64 - 6.0) / 6.0;
         w.write(m, time, &[if k == 5 { f64::NAN } else { truth / 8.0 }]).unwrap();
         w.write(t, time, &[truth]).unwrap();
         w.write(e, time, &[estimate, 0.1]).unwrap();
@@ -82,20 +88,46 @@ impl Decoded {
         self.recording.iter().filter(move |c| *c.entity_path() == path)
     }
 
-    /// The `sim_time` stamps (s) and scalar values of the series at `path`.
-    fn series(&self, path: &str) -> (Vec<f64>, Vec<f64>) {
+    /// The `sim_time` stamps (s) of the series at `path`, and its rows of scalars.
+    fn series(&self, path: &str) -> (Vec<f64>, Vec<Vec<f64>>) {
         let mut times = Vec::new();
-        let mut values = Vec::new();
+        let mut rows = Vec::new();
         for chunk in self.chunks(path).filter(|c| !c.is_static()) {
             let column = &chunk.timelines()[&TIMELINE.into()];
             times.extend(column.times_raw().iter().map(|&ns| ns as f64 / 1e9));
-            for row in chunk.iter_slices::<f64>(Scalars::descriptor_scalars().component) {
-                assert_eq!(row.len(), 1, "one scalar per row at {path}");
-                values.push(row[0]);
-            }
+            rows.extend(chunk.iter_slices::<f64>(Scalars::descriptor_scalars().component).map(|row| row.to_vec()));
         }
-        assert_eq!(times.len(), values.len(), "{path}");
-        (times, values)
+        assert_eq!(times.len(), rows.len(), "{path}");
+        (times, rows)
+    }
+
+    /// Column `k` of the series at `path`.
+    fn line(&self, path: &str, k: usize) -> Vec<f64> {
+        self.series(path).1.iter().map(|row| row[k]).collect()
+    }
+
+    /// The names given to the lines of the series at `path`.
+    fn line_names(&self, path: &str) -> Vec<String> {
+        let descriptor = SeriesLines::descriptor_names();
+        self.chunks(path)
+            .flat_map(|c| c.iter_slices::<String>(descriptor.component).flatten().map(|s| s.as_str().to_string()))
+            .collect()
+    }
+
+    /// The blueprint's views: (class, origin).
+    fn views(&self) -> Vec<(String, String)> {
+        let mut views = Vec::new();
+        for chunk in &self.blueprint {
+            let classes = strings(chunk, ViewBlueprint::descriptor_class_identifier());
+            let origins = strings(chunk, ViewBlueprint::descriptor_space_origin());
+            views.extend(classes.into_iter().zip(origins));
+        }
+        views
+    }
+
+    /// The blueprint's view titles.
+    fn view_names(&self) -> Vec<String> {
+        self.blueprint.iter().flat_map(|c| strings(c, ViewBlueprint::descriptor_display_name())).collect()
     }
 
     fn text(&self, path: &str) -> String {
@@ -109,47 +141,48 @@ impl Decoded {
     }
 }
 
-fn written(name: &str) -> (Report<'static>, Decoded, PathBuf) {
-    let log = temp(&format!("{name}.mcap"));
-    write_run(&log);
-    // Leaked: the report borrows the run's samples, for the whole test.
-    let run: &'static Run = Box::leak(Box::new(read_log(&log).unwrap()));
-    let report = analyse(run, &Options::default()).unwrap();
+fn strings(chunk: &Chunk, descriptor: rerun::ComponentDescriptor) -> Vec<String> {
+    chunk.iter_slices::<String>(descriptor.component).flatten().map(|s| s.as_str().to_string()).collect()
+}
+
+/// Two runs of one case (filters A and B, B twice as wrong), compared and recorded.
+fn written(name: &str, n: usize) -> (&'static [Run], Comparison<'static>, Decoded) {
+    let mut runs = Vec::new();
+    for (filter, error) in [("A", 0.05), ("B", 0.1)] {
+        let log = temp(&format!("{name}_{filter}.mcap"));
+        write_run(&log, filter, error, n);
+        runs.push(read_log(&log).unwrap());
+    }
+    // Leaked: the comparison borrows the runs' samples, for the whole test.
+    let runs: &'static [Run] = Vec::leak(runs);
+    let comparison = compare_runs(runs, &Options::default()).unwrap();
     let rrd = temp(&format!("{name}.rrd"));
-    write_rrd(&report, run, &rrd).unwrap();
-    (report, Decoded::read(&rrd), rrd)
+    write_rrd(&comparison, runs, &rrd).unwrap();
+    (runs, comparison, Decoded::read(&rrd))
 }
 
 #[test]
-fn the_recording_holds_every_series_of_the_report() {
-    let (report, rrd, _) = written("series");
-    let p = &report.pairs[0];
-    assert_eq!(rrd.recording_ids, ["series.mcap"], "the recording id is the log's file name");
-    for path in [
-        "signals/F/truth",
-        "signals/F/estimate",
-        "signals/F/plus_2sigma",
-        "signals/F/minus_2sigma",
-        "errors/F/error",
-        "errors/F/running_rmse",
-        "measurements/a",
-    ] {
-        let (times, values) = rrd.series(path);
-        let expected = if path == "measurements/a" { 1999 } else { 2000 };
-        assert_eq!(values.len(), expected, "rows of {path}");
-        assert_eq!((times[0], *times.last().unwrap()), (0.0, 19.99), "{path}");
-    }
-    let (_, truth) = rrd.series("signals/F/truth");
-    let (_, estimate) = rrd.series("signals/F/estimate");
-    assert_eq!(truth[..], p.truth_values[..], "every truth value, bit for bit");
-    assert_eq!((estimate[0], estimate[1999]), (p.estimate_values[0], p.estimate_values[1999]));
-    let (_, plus) = rrd.series("signals/F/plus_2sigma");
-    assert_eq!(plus[0], p.estimate_values[0] + 0.2);
-    let (_, rmse) = rrd.series("errors/F/running_rmse");
-    assert_eq!(*rmse.last().unwrap(), *p.running_rmse.last().unwrap());
+fn the_recording_overlays_the_truth_and_every_run() {
+    let (_, comparison, rrd) = written("series", 2000);
+    let (a, b) = (&comparison.runs[0].pairs[0], &comparison.runs[1].pairs[0]);
+    assert_eq!(rrd.recording_ids, ["series_A.mcap + series_B.mcap"], "the recording id names the logs");
+    // One entity per view, a line per scalar: truth, each estimate, each band's two edges.
+    assert_eq!(rrd.line_names("signals/F"), ["truth F", "A F", "B F", "A ± 2σ", "A ± 2σ", "B ± 2σ", "B ± 2σ"]);
+    assert_eq!(rrd.line_names("errors/F"), ["A", "B"]);
+    assert_eq!(rrd.line_names("rmse/F"), ["A", "B"]);
+    let (times, rows) = rrd.series("signals/F");
+    assert_eq!((rows.len(), rows[0].len()), (2000, 7));
+    assert_eq!((times[0], times[1999]), (0.0, 19.99));
+    assert_eq!(rrd.line("signals/F", 0), a.truth_values[..], "every truth value, bit for bit");
+    assert_eq!(rrd.line("signals/F", 2), b.estimate_values[..]);
+    assert_eq!(rrd.line("signals/F", 5)[0], b.estimate_values[0] + 0.2, "B's upper edge");
+    assert_eq!(rrd.line("signals/F", 6)[0], b.estimate_values[0] - 0.2, "B's lower edge");
+    let error: Vec<f64> = b.estimate_values.iter().zip(b.truth_values.iter()).map(|(e, t)| e - t).collect();
+    assert_eq!(rrd.line("errors/F", 1), error);
+    assert_eq!(rrd.line("rmse/F", 0), a.running_rmse);
     let (times, measured) = rrd.series("measurements/a");
-    assert_eq!((times[4], times[5]), (0.04, 0.06), "the NaN sample at 0.05 s is left out");
-    assert!(measured.iter().all(|v| v.is_finite()));
+    assert_eq!(measured.len(), 1999, "the NaN sample is left out");
+    assert_eq!((times[4], times[5]), (0.04, 0.06));
     // No wall clock: every temporal chunk is on sim_time alone.
     for chunk in rrd.recording.iter().filter(|c| !c.is_static()) {
         let names: Vec<String> = chunk.timelines().keys().map(|k| k.to_string()).collect();
@@ -158,10 +191,35 @@ fn the_recording_holds_every_series_of_the_report() {
 }
 
 #[test]
-fn the_recording_holds_the_spectra_the_report_and_a_blueprint() {
-    let (report, rrd, _) = written("static");
-    let p = &report.pairs[0];
-    for leaf in ["truth", "estimate"] {
+fn a_long_series_is_drawn_as_its_envelope_and_the_view_says_so() {
+    let n = 3 * MAX_ROWS + 17;
+    let (_, comparison, rrd) = written("long", n);
+    let a = &comparison.runs[0].pairs[0];
+    let bucket = envelope_bucket(n);
+    assert!(bucket > 1);
+    let (times, rows) = rrd.series("errors/F");
+    assert!(rows.len() <= MAX_ROWS + 2, "{} rows", rows.len());
+    assert!(times.windows(2).all(|w| w[0] <= w[1]));
+    // Every bucket's extremes are kept: the whole series' extremes, and each bucket's.
+    let error: Vec<f64> = a.estimate_values.iter().zip(a.truth_values.iter()).map(|(e, t)| e - t).collect();
+    let line = rrd.line("errors/F", 0);
+    let (lo, hi) = error.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
+    assert_eq!(line.iter().copied().fold(f64::INFINITY, f64::min), lo);
+    assert_eq!(line.iter().copied().fold(f64::NEG_INFINITY, f64::max), hi);
+    let third = &error[2 * bucket..3 * bucket];
+    assert_eq!(line[4], third.iter().copied().fold(f64::INFINITY, f64::min));
+    assert_eq!(line[5], third.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    let note = format!("min/max of every {bucket} samples");
+    assert!(rrd.text("report").contains(&note), "the report says so");
+    let titles = rrd.view_names();
+    assert!(titles.iter().filter(|t| t.contains(&note)).count() == 3, "the three time views say so: {titles:?}");
+}
+
+#[test]
+fn the_recording_holds_the_spectra_the_tables_and_a_blueprint() {
+    let (_, comparison, rrd) = written("static", 2000);
+    let a = &comparison.runs[0].pairs[0];
+    for leaf in ["truth", "A", "B"] {
         let path = format!("psd/F/loglog/{leaf}");
         let chunk = rrd.chunks(&path).next().unwrap_or_else(|| panic!("{path} is missing"));
         assert!(chunk.is_static());
@@ -170,31 +228,34 @@ fn the_recording_holds_the_spectra_the_report_and_a_blueprint() {
             .flatten()
             .map(|strip| strip.len())
             .sum();
-        assert_eq!(points, p.truth_spectrum.frequency.len() - 1, "every bin but DC at {path}");
+        assert_eq!(points, a.truth_spectrum.frequency.len() - 1, "every bin but DC at {path}");
     }
     let text = rrd.text("report");
-    let correlation = format!("{:.5}", p.comparison.correlation);
-    assert!(text.contains(&correlation), "the report shows the correlation {correlation}:\n{text}");
-    assert!(text.contains("| seed | 7 |"), "{text}");
+    // A row per metric, a column per run, the best in bold (A's error is the smaller).
+    let row = text.lines().find(|l| l.starts_with("| RMSE |")).unwrap();
+    let cells: Vec<&str> = row.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
+    assert_eq!(cells.len(), 3, "{row}");
+    assert!(cells[1].starts_with("**") && !cells[2].starts_with("**"), "{row}");
+    let rmse = |cell: &str| cell.trim_matches('*').parse::<f64>().unwrap();
+    assert!((rmse(cells[1]) - a.metrics.rmse).abs() < 1e-3 * a.metrics.rmse, "{row}");
+    assert!(text.contains("| metric | A | B |"), "{text}");
+    // The metadata as a table with a column per run, the parameters one per row.
+    assert!(text.contains("| seed | 7 | 7 |"), "{text}");
+    assert!(text.contains("| parameter `q_std` | 0.05 | 0.1 |"), "{text}");
+    assert!(text.contains("| parameter `kind` | A | B |"), "{text}");
+    assert!(!text.contains("| parameters |"), "no JSON blob: {text}");
     let properties = EntityPath::properties();
-    assert!(rrd.recording.iter().any(|c| *c.entity_path() == properties), "the recording properties name the log");
-    // The blueprint: its own store, activated, with its five views (`2D` is the Spatial2DView).
+    assert!(rrd.recording.iter().any(|c| *c.entity_path() == properties), "the recording properties name the logs");
+    // The blueprint: its own store, activated, with its six views (`2D` is the Spatial2DView).
     assert_eq!(rrd.activations, 1);
-    let strings = |chunk: &Chunk, descriptor: rerun::ComponentDescriptor| -> Vec<String> {
-        chunk.iter_slices::<String>(descriptor.component).flatten().map(|s| s.as_str().to_string()).collect()
-    };
-    let mut views: Vec<(String, String)> = Vec::new();
-    for chunk in &rrd.blueprint {
-        let classes = strings(chunk, ViewBlueprint::descriptor_class_identifier());
-        let origins = strings(chunk, ViewBlueprint::descriptor_space_origin());
-        views.extend(classes.into_iter().zip(origins));
-    }
+    let mut views = rrd.views();
     views.sort();
     let expected = [
         ("2D", "/psd/F"),
         ("TextDocument", "/report"),
         ("TimeSeries", "/errors/F"),
         ("TimeSeries", "/measurements"),
+        ("TimeSeries", "/rmse/F"),
         ("TimeSeries", "/signals/F"),
     ];
     let expected: Vec<(String, String)> = expected.iter().map(|(c, o)| (c.to_string(), o.to_string())).collect();
@@ -203,12 +264,11 @@ fn the_recording_holds_the_spectra_the_report_and_a_blueprint() {
 
 #[test]
 fn writing_twice_gives_the_same_recording_chunks() {
-    let (report, first, _) = written("twice");
-    let run = read_log(&temp("twice.mcap")).unwrap();
+    let (runs, comparison, first) = written("twice", 2000);
     let dir = temp("again");
     std::fs::create_dir_all(&dir).unwrap();
     let again = dir.join("twice.rrd");
-    write_rrd(&report, &run, &again).unwrap();
+    write_rrd(&comparison, runs, &again).unwrap();
     let second = Decoded::read(&again);
     assert_eq!(first.recording_ids, second.recording_ids);
     assert_eq!(first.recording.len(), second.recording.len());
@@ -218,7 +278,7 @@ fn writing_twice_gives_the_same_recording_chunks() {
 #[test]
 fn rerun_off_in_the_environment_is_an_error_not_a_missing_file() {
     let log = temp("off.mcap");
-    write_run(&log);
+    write_run(&log, "A", 0.05, 2000);
     let rrd = temp("off.rrd");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_analyzer"))
         .args(["report", log.to_str().unwrap(), "--rrd", rrd.to_str().unwrap()])

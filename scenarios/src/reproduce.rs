@@ -8,6 +8,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use analyzer::compare::compare_runs;
 use analyzer::log::PREDICTION;
 use analyzer::read::read_log;
 use analyzer::report::{analyse, Options, PairReport, Report};
@@ -105,7 +106,8 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         settings.seed
     );
     println!(
-        "estimates from {} driven through the fmi importer; logs (.mcap), reports (.json) and Rerun recordings (.rrd) in {}",
+        "estimates from {} driven through the fmi importer; per run a log (<case>_<filter>.mcap), per case a comparison \
+         of every filter (<case>.json, and the Rerun recording <case>.rrd) in {}",
         fmu_path.display(),
         dir.display()
     );
@@ -141,32 +143,59 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
         "RMSE conv"
     );
     let mut failures = 0;
+    let mut recordings = Vec::new();
+    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
+    let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
     for case in Case::ALL {
         let (truth, measurements) = s1::simulate(&case, settings);
         let published = case.published();
+        let case_stem = dir.join(case.to_string().replace('/', "_"));
+        // Each filter's run through the FMU, logged and read back.
+        let mut runs = Vec::new();
+        let mut rows: Vec<(FilterKind, anyhow::Result<usize>)> = Vec::new();
         for kind in FilterKind::ALL {
             bar.set_message(format!("{case} {kind}"));
-            let stem = dir.join(format!(
-                "{}_{}",
+            let log = case_stem.with_file_name(format!(
+                "{}_{}.mcap",
                 case.to_string().replace('/', "_"),
                 kind.name().to_lowercase().replace('-', "")
             ));
-            let log = stem.with_extension("mcap");
             let sim = s1::fmu_run::Simulated { case: &case, settings, truth: &truth, measurements: &measurements };
-            let result = s1::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1)).and_then(|()| {
-                let run = read_log(&log)?;
-                let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
-                let report = analyse(&run, &options)?;
-                report.write_json(&stem.with_extension("json"))?;
-                write_rrd(&report, &run, &stem.with_extension("rrd"))?;
-                let after_step = analyse(&run, &Options { estimate_topic: PREDICTION.into(), ..options })?;
-                let (Some(pair), Some(after)) = (load_pair(&report), load_pair(&after_step)) else {
-                    bail!("the report of {} has no load pair", log.display());
+            let result = s1::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1))
+                .and_then(|()| Ok(read_log(&log)?))
+                .map(|run| {
+                    runs.push(run);
+                    runs.len() - 1
+                });
+            rows.push((kind, result));
+        }
+        // All of the case's runs in one comparison: JSON and one recording.
+        let compared = compare_runs(&runs, &options).and_then(|comparison| {
+            let recording = case_stem.with_extension("rrd");
+            comparison.write_json(&case_stem.with_extension("json"))?;
+            write_rrd(&comparison, &runs, &recording)?;
+            recordings.push(recording);
+            let after_step =
+                runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
+            let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
+            let loads = comparison.runs.iter().zip(&after_step).map(|(report, after)| {
+                let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
+                    return Err(format!("the report of {} has no load pair", report.file));
                 };
-                Ok((pair.comparison, pair.psd_agreement_band, after.comparison))
+                Ok((pair.metrics, pair.psd_agreement_band, after.metrics))
             });
-            let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-            match result {
+            Ok(loads.collect::<Vec<_>>())
+        });
+        let loads = match compared {
+            Ok(loads) => loads,
+            Err(e) => {
+                failures += 1;
+                let _ = writeln!(table, "{:<19} FAILED to compare the filters: {e}", case.to_string());
+                continue;
+            }
+        };
+        for (kind, result) in rows {
+            match result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg)) {
                 Ok((c, band, a)) => {
                     let band = band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
                     let _ = writeln!(
@@ -197,6 +226,10 @@ fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<
     bar.finish_and_clear();
     print!("{table}");
     println!("paper: SRCKF figures of Gong et al. 2024 (correlation; running-RMSE peak; bound after the start), N");
+    println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
+    for recording in &recordings {
+        println!("  {}", recording.display());
+    }
     Ok(failures)
 }
 

@@ -66,8 +66,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     continue;
                 }
                 seeds += 1;
-                match &run.comparison {
-                    Some(comparison) => corr.push(comparison.correlation),
+                match &run.metrics {
+                    Some(metrics) => corr.push(metrics.correlation),
                     None => {
                         failures += 1;
                         eprintln!(

@@ -25,7 +25,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use analyzer::metrics::{compare, Comparison};
+use analyzer::metrics::{compare, Metrics};
 use load::Load;
 use plant::Truth;
 
@@ -349,7 +349,7 @@ pub struct FilterRun {
     /// Its standard deviation (N).
     pub load_std: Vec<f64>,
     /// Metrics against the true load; `None` when the filter failed.
-    pub comparison: Option<Comparison>,
+    pub metrics: Option<Metrics>,
     /// The error that stopped the filter, with the time.
     pub failure: Option<String>,
 }
@@ -384,7 +384,7 @@ pub fn run_filter(
     measurements: &Measurements,
 ) -> FilterRun {
     let tuning = Tuning::new(settings, measurements.noise_std);
-    let mut run = FilterRun { kind, load: Vec::new(), load_std: Vec::new(), comparison: None, failure: None };
+    let mut run = FilterRun { kind, load: Vec::new(), load_std: Vec::new(), metrics: None, failure: None };
     let mut filter = match tuning.filter(kind, case, tuning.noise()) {
         Ok(f) => f,
         Err(e) => {
@@ -403,6 +403,6 @@ pub fn run_filter(
         run.load.push(filter.mean()[Oscillator2DofLoad::LOAD]);
         run.load_std.push(filter.variance(Oscillator2DofLoad::LOAD).max(0.0).sqrt());
     }
-    run.comparison = Some(compare(&truth.load, &run.load, truth.time[0], dt, settings.rmse_window));
+    run.metrics = Some(compare(&truth.load, &run.load, truth.time[0], dt, settings.rmse_window));
     run
 }

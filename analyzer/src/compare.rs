@@ -1,0 +1,322 @@
+//! Runs of one case compared: each run's estimates against the truth they share, in one
+//! table across the runs (rows are runs, columns are the metrics, the best value marked),
+//! one JSON document, and one Rerun recording (`rrd.rs`).
+//!
+//! Runs are comparable when they share their truth: the same compared truth signals, at
+//! the same times, with the same values bit for bit (the same case and seed). Runs that do
+//! not are refused, naming both files and where their truths part.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::error::LogError;
+use crate::parallel;
+use crate::read::Run;
+use crate::report::{analyse, Options, PairReport, Report};
+
+/// The metadata keys that say which case a run is.
+const CASE_KEYS: [&str; 3] = ["study", "case", "seed"];
+
+/// Which value of a metric is best.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Goal {
+    /// The highest.
+    Highest,
+    /// The lowest.
+    Lowest,
+    /// The nearest to this value.
+    Nearest(f64),
+}
+
+/// A column of the comparison table: one metric of a compared signal.
+#[derive(Debug, Clone, Copy)]
+pub struct Column {
+    /// Its key in the JSON report.
+    pub key: &'static str,
+    /// Its heading.
+    pub heading: &'static str,
+    /// Which value is best.
+    pub goal: Goal,
+    /// Its value for a pair (`None`: not defined for it).
+    pub value: fn(&PairReport) -> Option<f64>,
+    /// Its text for a pair.
+    pub text: fn(&PairReport) -> String,
+}
+
+/// Four significant digits, in plain notation from 0.001 to 99 999: RMSEs of 1e-4 m and of
+/// 100 N both read.
+fn significant(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let magnitude = v.abs().log10().floor();
+    if (-3.0..5.0).contains(&magnitude) {
+        format!("{v:.*}", (3.0 - magnitude).max(0.0) as usize)
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+fn band_text(p: &PairReport) -> String {
+    p.psd_agreement_band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.2}"))
+}
+
+/// The metrics compared, in table order.
+pub const COLUMNS: [Column; 9] = [
+    Column {
+        key: "correlation",
+        heading: "corr",
+        goal: Goal::Highest,
+        value: |p| Some(p.metrics.correlation),
+        text: |p| format!("{:.5}", p.metrics.correlation),
+    },
+    Column {
+        key: "rmse",
+        heading: "RMSE",
+        goal: Goal::Lowest,
+        value: |p| Some(p.metrics.rmse),
+        text: |p| significant(p.metrics.rmse),
+    },
+    Column {
+        key: "rmse_converged",
+        heading: "RMSE conv",
+        goal: Goal::Lowest,
+        value: |p| Some(p.metrics.rmse_converged),
+        text: |p| significant(p.metrics.rmse_converged),
+    },
+    Column {
+        key: "convergence_time",
+        heading: "t_conv (s)",
+        goal: Goal::Lowest,
+        value: |p| Some(p.metrics.convergence_time),
+        text: |p| format!("{:.2}", p.metrics.convergence_time),
+    },
+    Column {
+        key: "running_rmse_peak",
+        heading: "run. peak",
+        goal: Goal::Lowest,
+        value: |p| Some(p.metrics.running_rmse_peak),
+        text: |p| significant(p.metrics.running_rmse_peak),
+    },
+    Column {
+        key: "running_rmse_max_converged",
+        heading: "run. max conv",
+        goal: Goal::Lowest,
+        value: |p| Some(p.metrics.running_rmse_max_converged),
+        text: |p| significant(p.metrics.running_rmse_max_converged),
+    },
+    Column {
+        key: "two_sigma_coverage",
+        heading: "2σ cov",
+        // A consistent Gaussian estimate has 95.45 % of its errors within ±2σ.
+        goal: Goal::Nearest(0.9545),
+        value: |p| p.two_sigma_coverage,
+        text: |p| p.two_sigma_coverage.map_or("—".into(), |v| format!("{v:.3}")),
+    },
+    Column {
+        key: "final_relative_error",
+        heading: "final rel",
+        goal: Goal::Lowest,
+        value: |p| Some(p.metrics.final_relative_error),
+        text: |p| format!("{:.2e}", p.metrics.final_relative_error),
+    },
+    Column {
+        key: "psd_agreement_band",
+        heading: "PSD ±3 dB (Hz)",
+        // The widest band of agreement.
+        goal: Goal::Highest,
+        value: |p| p.psd_agreement_band.map(|(lo, hi)| hi - lo),
+        text: band_text,
+    },
+];
+
+impl Column {
+    /// The index of the best of these pairs (the first of equals); `None` if no value is defined.
+    pub fn best(&self, pairs: &[&PairReport]) -> Option<usize> {
+        let score = |v: f64| match self.goal {
+            Goal::Highest => -v,
+            Goal::Lowest => v,
+            Goal::Nearest(target) => (v - target).abs(),
+        };
+        pairs
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| (self.value)(p).filter(|v| v.is_finite()).map(|v| (i, score(v))))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i)
+    }
+}
+
+/// The runs of one case, analysed and compared.
+#[derive(Debug, Serialize)]
+pub struct Comparison<'a> {
+    /// A short name per run: its filter (metadata `filter`), else its file's stem.
+    pub labels: Vec<String>,
+    /// Each run's report, in the order the runs were given.
+    pub runs: Vec<Report<'a>>,
+    /// Per compared signal (in the order of the first run's pairs), the label of the best
+    /// run for each metric key; empty with a single run.
+    pub best: Vec<BTreeMap<String, String>>,
+}
+
+/// Analyses each run (on every core) and compares them; refuses runs that do not share
+/// their truth.
+pub fn compare_runs<'a>(runs: &'a [Run], options: &Options) -> Result<Comparison<'a>, LogError> {
+    let Some(first) = runs.first() else {
+        return Err(LogError::Analysis { file: "".into(), what: "no log to compare".into() });
+    };
+    let reports = parallel::map(runs, |run| analyse(run, options)).into_iter().collect::<Result<Vec<_>, _>>()?;
+    for (run, report) in runs.iter().zip(&reports).skip(1) {
+        check_shared_truth(first, &reports[0], run, report)?;
+    }
+    let labels = labels(runs);
+    let mut best = Vec::new();
+    if reports.len() > 1 {
+        for k in 0..reports[0].pairs.len() {
+            let pairs: Vec<&PairReport> = reports.iter().map(|r| &r.pairs[k]).collect();
+            let mut of_signal = BTreeMap::from([("signal".to_string(), pair_name(pairs[0]))]);
+            for column in &COLUMNS {
+                if let Some(i) = column.best(&pairs) {
+                    of_signal.insert(column.key.to_string(), labels[i].clone());
+                }
+            }
+            best.push(of_signal);
+        }
+    }
+    Ok(Comparison { labels, runs: reports, best })
+}
+
+/// The runs' short names: their filters if every run names a different one, else their
+/// files' stems if those differ, else `run 1`, `run 2`, ….
+fn labels(runs: &[Run]) -> Vec<String> {
+    let distinct = |names: &[String]| {
+        let mut sorted = names.to_vec();
+        sorted.sort();
+        sorted.dedup();
+        sorted.len() == names.len() && names.iter().all(|n| !n.is_empty())
+    };
+    let filters: Vec<String> = runs.iter().map(|r| r.metadata.get("filter").cloned().unwrap_or_default()).collect();
+    if distinct(&filters) {
+        return filters;
+    }
+    let stems: Vec<String> =
+        runs.iter().map(|r| r.file.file_stem().map_or(String::new(), |s| s.to_string_lossy().into())).collect();
+    if distinct(&stems) {
+        return stems;
+    }
+    (1..=runs.len()).map(|k| format!("run {k}")).collect()
+}
+
+/// The name of a compared signal: the truth's, or `X~Y` when `--pair` pairs different names.
+pub fn pair_name(p: &PairReport) -> String {
+    if p.truth == p.estimate {
+        p.truth.clone()
+    } else {
+        format!("{}~{}", p.truth, p.estimate)
+    }
+}
+
+/// Refuses `run` unless its compared truth is `first`'s, bit for bit.
+fn check_shared_truth(first: &Run, first_report: &Report, run: &Run, report: &Report) -> Result<(), LogError> {
+    let refuse = |what: String| {
+        let differences: Vec<String> = CASE_KEYS
+            .iter()
+            .filter_map(|k| match (first.metadata.get(*k), run.metadata.get(*k)) {
+                (Some(a), Some(b)) if a != b => Some(format!("{k} {a} vs {b}")),
+                _ => None,
+            })
+            .collect();
+        let why = if differences.is_empty() { String::new() } else { format!(" ({})", differences.join(", ")) };
+        Err(LogError::NotComparable { file: run.file.clone(), other: first.file.clone(), what: format!("{what}{why}") })
+    };
+    let names = |r: &Report| r.pairs.iter().map(pair_name).collect::<Vec<_>>();
+    if names(first_report) != names(report) {
+        return refuse(format!(
+            "they compare different signals ({} vs {})",
+            names(first_report).join(", "),
+            names(report).join(", ")
+        ));
+    }
+    for (a, b) in first_report.pairs.iter().zip(&report.pairs) {
+        if a.time.len() != b.time.len() {
+            return refuse(format!(
+                "truth {} has {} samples in one and {} in the other",
+                a.truth,
+                a.time.len(),
+                b.time.len()
+            ));
+        }
+        let same = |x: &f64, y: &f64| x.to_bits() == y.to_bits();
+        if let Some(k) =
+            (0..a.time.len()).find(|&k| !same(&a.time[k], &b.time[k]) || !same(&a.truth_values[k], &b.truth_values[k]))
+        {
+            return refuse(format!(
+                "truth {} differs at sample {k} (t = {} s: {} vs {})",
+                a.truth, a.time[k], a.truth_values[k], b.truth_values[k]
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl Comparison<'_> {
+    /// The table printed by `analyzer report`/`compare`: per compared signal, a row per run,
+    /// the best value of each column marked `*` (with two runs or more).
+    pub fn table(&self) -> String {
+        let mut out = String::new();
+        let marks = self.runs.len() > 1;
+        for (i, report) in self.runs.iter().enumerate() {
+            let _ = writeln!(out, "{}: {}", self.labels[i], report.file);
+        }
+        let width = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0).max(3);
+        for k in 0..self.runs.first().map_or(0, |r| r.pairs.len()) {
+            let pairs: Vec<&PairReport> = self.runs.iter().map(|r| &r.pairs[k]).collect();
+            let p = pairs[0];
+            let _ = writeln!(
+                out,
+                "\n{} [{}]: {} samples, t = {} to {} s",
+                pair_name(p),
+                p.unit,
+                p.samples,
+                p.time.first().copied().unwrap_or(0.0),
+                p.time.last().copied().unwrap_or(0.0)
+            );
+            let best: Vec<Option<usize>> = COLUMNS.iter().map(|c| c.best(&pairs)).collect();
+            let cells: Vec<Vec<String>> =
+                pairs.iter().map(|pair| COLUMNS.iter().map(|column| (column.text)(pair)).collect()).collect();
+            let widths: Vec<usize> = COLUMNS
+                .iter()
+                .enumerate()
+                .map(|(j, c)| {
+                    cells.iter().map(|row| row[j].chars().count() + 1).fold(c.heading.chars().count(), usize::max)
+                })
+                .collect();
+            let _ = write!(out, "{:<width$}", "run");
+            for (column, w) in COLUMNS.iter().zip(&widths) {
+                let _ = write!(out, "  {:>w$}", column.heading);
+            }
+            out.push('\n');
+            for (i, row) in cells.iter().enumerate() {
+                let _ = write!(out, "{:<width$}", self.labels[i]);
+                for ((text, best), w) in row.iter().zip(&best).zip(&widths) {
+                    let mark = if marks && *best == Some(i) { "*" } else { " " };
+                    let _ = write!(out, "  {:>w$}", format!("{text}{mark}"), w = w);
+                }
+                out.push('\n');
+            }
+        }
+        if marks {
+            let _ = writeln!(out, "\n* best of the runs (2σ cov: nearest 0.9545; PSD band: widest)");
+        }
+        out
+    }
+
+    /// Writes the comparison as JSON: the labels, every run's report, and the best runs.
+    pub fn write_json(&self, path: &Path) -> Result<(), LogError> {
+        let text = serde_json::to_string_pretty(self).expect("a comparison serialises");
+        std::fs::write(path, text).map_err(|source| LogError::Io { file: path.to_path_buf(), source })
+    }
+}
