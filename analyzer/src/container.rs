@@ -100,6 +100,11 @@ pub enum Ending {
 
 /// Reads the records of the data section of the MCAP file at `path`, in file order, and
 /// passes each to `visit` (which may stop the stream with an error of its own).
+///
+/// Two threads share the work: one reads the file and decompresses and checks every other
+/// chunk, the caller's decompresses the others and parses and visits the records, so that
+/// on two cores neither waits long for the other (decompression is most of the cost). At
+/// most six chunk buffers are alive at once, whatever the file's size.
 pub fn read_records(
     path: &Path,
     mut visit: impl FnMut(Record<'_>) -> Result<(), LogError>,
@@ -119,54 +124,77 @@ pub fn read_records(
             what: format!("the file ends after {got} bytes, inside the MCAP magic"),
         });
     }
-    let mut reader = Reader {
-        offset: MAGIC.len() as u64,
-        body: Vec::new(),
-        chunk: Vec::new(),
-        zstd: zstd::bulk::Decompressor::new().map_err(io)?,
-    };
     let damaged = |offset, what: String| Ok(Ending::Damaged(Damage { offset, what, file_len }));
-    loop {
-        let start = reader.offset;
-        let mut head = [0u8; 9];
-        let got = read_up_to(&mut input, &mut head).map_err(io)?;
-        if got == 0 {
-            return damaged(start, "the file ends without its data-end record, summary and footer".into());
-        }
-        if got < head.len() {
-            return damaged(start, format!("the file ends inside a record header ({got} of 9 bytes)"));
-        }
-        let opcode = head[0];
-        let length = u64::from_le_bytes(head[1..].try_into().expect("8 bytes"));
-        reader.offset += head.len() as u64;
-        if opcode == OP_DATA_END || opcode == OP_FOOTER {
-            return Ok(Ending::Complete);
-        }
-        let remaining = file_len.saturating_sub(reader.offset);
-        if length > MAX_RECORD {
-            return damaged(start, format!("record 0x{opcode:02x} claims {length} bytes: a corrupt length"));
-        }
-        let available = length.min(remaining) as usize;
-        reader.body.clear();
-        reader.body.resize(available, 0);
-        let got = read_up_to(&mut input, &mut reader.body).map_err(io)?;
-        reader.body.truncate(got);
-        reader.offset += got as u64;
-        let cut = (got as u64) < length;
-        let outcome = if opcode == OP_CHUNK {
-            reader.chunk(start, cut, &mut visit)?
-        } else if cut {
-            Err(format!("the file ends inside record 0x{opcode:02x} ({got} of {length} bytes)"))
-        } else {
-            match dispatch(opcode, &reader.body, &mut visit) {
-                Ok(()) => Ok(()),
-                Err(stop) => Err(stop.into_damage()?),
+    let mut zstd = zstd::bulk::Decompressor::new().map_err(io)?;
+    let mut decompressed = Vec::new();
+    std::thread::scope(|scope| {
+        let (pieces, received) = std::sync::mpsc::sync_channel(2);
+        let (spares, spare) = std::sync::mpsc::channel();
+        let producer = Producer { input, file_len, offset: MAGIC.len() as u64, chunks: 0, pieces, spare };
+        scope.spawn(move || producer.run());
+        for produced in received {
+            let piece = match produced {
+                Produced::Piece(piece) => piece,
+                Produced::End(ending) => return ending.map_err(io),
+            };
+            let (records, kind) = match piece.kind {
+                Kind::Compressed { start, cut } => {
+                    decompressed.clear();
+                    if let Err(what) = chunk(&mut zstd, &piece.bytes, start, cut, &mut decompressed) {
+                        return damaged(start, what);
+                    }
+                    (&decompressed[..], Kind::Chunk { start, whole: !cut })
+                }
+                kind => (&piece.bytes[..], kind),
+            };
+            if let Some((offset, what)) = visit_records(records, &kind, &mut visit)? {
+                return damaged(offset, what);
             }
+            // Back to the producer, to be filled again.
+            let _ = spares.send(piece.bytes);
+        }
+        Err(io(std::io::Error::other("the reading thread stopped without saying why")))
+    })
+}
+
+/// Passes the records of `bytes` on; `Ok(Some((offset, what)))` where they are damaged.
+fn visit_records(
+    bytes: &[u8],
+    kind: &Kind,
+    visit: &mut impl FnMut(Record<'_>) -> Result<(), LogError>,
+) -> Result<Option<(u64, String)>, LogError> {
+    let mut at = 0;
+    for k in 0.. {
+        if at == bytes.len() {
+            break;
+        }
+        let Some((opcode, body)) = split_record(&bytes[at..]) else {
+            return Ok(match *kind {
+                // The rest of a cut chunk: its damage comes next.
+                Kind::Chunk { whole: false, .. } => None,
+                Kind::Chunk { start, .. } => {
+                    Some((start, format!("chunk at byte {start}: a record overruns the chunk")))
+                }
+                Kind::Records { .. } | Kind::Compressed { .. } => {
+                    unreachable!("the producer batches whole records only")
+                }
+            });
         };
-        if let Err(what) = outcome {
-            return damaged(start, what);
+        at += 9 + body.len();
+        match dispatch(opcode, body, visit) {
+            Ok(()) => {}
+            Err(Stop::Visitor(e)) => return Err(e),
+            Err(Stop::Damage(what)) => {
+                return Ok(Some(match kind {
+                    Kind::Records { offsets } => (offsets[k], format!("record 0x{opcode:02x}: {what}")),
+                    Kind::Chunk { start, .. } | Kind::Compressed { start, .. } => {
+                        (*start, format!("chunk at byte {start}: {what}"))
+                    }
+                }));
+            }
         }
     }
+    Ok(None)
 }
 
 /// The message count of each channel id, from the statistics record of a complete file's
@@ -236,12 +264,149 @@ fn read_up_to(input: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     Ok(filled)
 }
 
-/// The reusable buffers of a stream and its position.
-struct Reader {
+/// What the reading thread passes on: records to visit, then how the data section ended.
+enum Produced {
+    Piece(Piece),
+    End(std::io::Result<Ending>),
+}
+
+/// Complete records, one after the other (`opcode, length, body`).
+struct Piece {
+    bytes: Vec<u8>,
+    kind: Kind,
+}
+
+enum Kind {
+    /// Records outside chunks, with the byte offset of each.
+    Records { offsets: Vec<u64> },
+    /// A chunk record's body as it is in the file, for the consumer to decompress (`cut`:
+    /// the file ends inside it).
+    Compressed { start: u64, cut: bool },
+    /// A chunk's decompressed records; `whole: false` for a cut chunk, whose last record may
+    /// be incomplete.
+    Chunk { start: u64, whole: bool },
+}
+
+/// Records outside chunks are passed on in batches of about this many bytes.
+const BATCH: usize = 1 << 20;
+
+/// The reading thread: reads the records, decompresses and checks the chunks.
+struct Producer<R> {
+    input: R,
+    file_len: u64,
     offset: u64,
-    body: Vec<u8>,
-    chunk: Vec<u8>,
-    zstd: zstd::bulk::Decompressor<'static>,
+    /// Chunks met so far: the odd ones go on compressed.
+    chunks: u64,
+    pieces: std::sync::mpsc::SyncSender<Produced>,
+    spare: std::sync::mpsc::Receiver<Vec<u8>>,
+}
+
+impl<R: Read> Producer<R> {
+    fn run(mut self) {
+        let ending = self.produce();
+        let _ = self.pieces.send(Produced::End(ending));
+    }
+
+    /// A buffer the consumer gave back, or a new one.
+    fn buffer(&self) -> Vec<u8> {
+        let mut buffer = self.spare.try_recv().unwrap_or_default();
+        buffer.clear();
+        buffer
+    }
+
+    /// Passes `piece` on; `false` when the consumer has stopped.
+    fn send(&self, piece: Piece) -> bool {
+        self.pieces.send(Produced::Piece(piece)).is_ok()
+    }
+
+    /// Reads up to the end of the data section or the damage. A consumer that stops early
+    /// ends this with `Complete`, which it no longer reads.
+    fn produce(&mut self) -> std::io::Result<Ending> {
+        let mut zstd = zstd::bulk::Decompressor::new()?;
+        let mut body = Vec::new();
+        let mut batch = (self.buffer(), Vec::new());
+        let damaged = |offset, what: String, file_len| Ok(Ending::Damaged(Damage { offset, what, file_len }));
+        loop {
+            let start = self.offset;
+            let mut head = [0u8; 9];
+            let got = read_up_to(&mut self.input, &mut head)?;
+            let opcode = head[0];
+            let length = u64::from_le_bytes(head[1..].try_into().expect("8 bytes"));
+            self.offset += got as u64;
+            let remaining = self.file_len.saturating_sub(self.offset);
+            let complete = opcode == OP_DATA_END || opcode == OP_FOOTER;
+            let ending = if got == 0 {
+                Some(damaged(
+                    start,
+                    "the file ends without its data-end record, summary and footer".into(),
+                    self.file_len,
+                ))
+            } else if got < head.len() {
+                Some(damaged(start, format!("the file ends inside a record header ({got} of 9 bytes)"), self.file_len))
+            } else if complete {
+                Some(Ok(Ending::Complete))
+            } else if length > MAX_RECORD {
+                Some(damaged(
+                    start,
+                    format!("record 0x{opcode:02x} claims {length} bytes: a corrupt length"),
+                    self.file_len,
+                ))
+            } else {
+                None
+            };
+            // Records outside chunks go on before a chunk or the end, in file order.
+            if (ending.is_some() || opcode == OP_CHUNK) && !batch.0.is_empty() {
+                let (bytes, offsets) = std::mem::replace(&mut batch, (self.buffer(), Vec::new()));
+                if !self.send(Piece { bytes, kind: Kind::Records { offsets } }) {
+                    return Ok(Ending::Complete);
+                }
+            }
+            if let Some(ending) = ending {
+                return ending;
+            }
+            body.clear();
+            body.resize(length.min(remaining) as usize, 0);
+            let got = read_up_to(&mut self.input, &mut body)?;
+            body.truncate(got);
+            self.offset += got as u64;
+            let cut = (got as u64) < length;
+            if opcode == OP_CHUNK {
+                self.chunks += 1;
+                let piece = if self.chunks.is_multiple_of(2) {
+                    let fresh = self.buffer();
+                    Piece { bytes: std::mem::replace(&mut body, fresh), kind: Kind::Compressed { start, cut } }
+                } else {
+                    let mut records = self.buffer();
+                    if let Err(what) = chunk(&mut zstd, &body, start, cut, &mut records) {
+                        return damaged(start, what, self.file_len);
+                    }
+                    Piece { bytes: records, kind: Kind::Chunk { start, whole: !cut } }
+                };
+                if !self.send(piece) {
+                    return Ok(Ending::Complete);
+                }
+                if cut {
+                    let what = "the file ends inside this chunk; its complete records were read, but their CRC \
+                                cannot be checked";
+                    return damaged(start, format!("chunk at byte {start}: {what}"), self.file_len);
+                }
+            } else if cut {
+                let what = format!("the file ends inside record 0x{opcode:02x} ({got} of {length} bytes)");
+                return damaged(start, what, self.file_len);
+            } else if matches!(opcode, OP_SCHEMA | OP_CHANNEL | OP_MESSAGE | OP_METADATA) {
+                batch.0.push(opcode);
+                batch.0.extend_from_slice(&length.to_le_bytes());
+                batch.0.extend_from_slice(&body);
+                batch.1.push(start);
+                if batch.0.len() >= BATCH {
+                    let (bytes, offsets) = std::mem::replace(&mut batch, (self.buffer(), Vec::new()));
+                    if !self.send(Piece { bytes, kind: Kind::Records { offsets } }) {
+                        return Ok(Ending::Complete);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Why a record could not be used: the file's damage, or the visitor's own error.
@@ -250,89 +415,51 @@ enum Stop {
     Visitor(LogError),
 }
 
-impl Stop {
-    /// The visitor's error stops everything; damage ends the stream.
-    fn into_damage(self) -> Result<String, LogError> {
-        match self {
-            Stop::Damage(what) => Ok(what),
-            Stop::Visitor(e) => Err(e),
-        }
-    }
-}
-
 impl From<String> for Stop {
     fn from(what: String) -> Self {
         Stop::Damage(what)
     }
 }
 
-impl Reader {
-    /// A chunk record (cut short if `cut`): decompress, check, and pass its records on.
-    /// `Ok(Err(what))` is damage; `Err` is the visitor's error.
-    fn chunk(
-        &mut self,
-        start: u64,
-        cut: bool,
-        visit: &mut impl FnMut(Record<'_>) -> Result<(), LogError>,
-    ) -> Result<Result<(), String>, LogError> {
-        let Reader { body, chunk, zstd, .. } = self;
-        let header = match chunk_header(body) {
-            Ok(h) => h,
-            Err(what) => {
-                let what = if cut { format!("the file ends inside a chunk header ({what})") } else { what };
-                return Ok(Err(what));
-            }
-        };
-        if header.uncompressed_size > MAX_RECORD {
-            return Ok(Err(format!("chunk claims {} uncompressed bytes: a corrupt length", header.uncompressed_size)));
-        }
-        let records = &body[header.records_start..];
-        let records = &records[..records.len().min(header.records_length as usize)];
-        let whole = records.len() as u64 == header.records_length;
-        chunk.clear();
-        let decoded = decompress(zstd, header.compression, records, header.uncompressed_size as usize, whole, chunk);
-        let mut damage = match decoded {
-            Err(what) if whole => return Ok(Err(format!("chunk at byte {start}: {what}"))),
-            _ if !whole => Some(format!(
-                "the file ends inside a chunk ({} of {} compressed bytes); its complete records were read, \
-                 but their CRC cannot be checked",
-                records.len(),
-                header.records_length
-            )),
-            _ => None,
-        };
-        if whole {
-            if chunk.len() as u64 != header.uncompressed_size {
-                return Ok(Err(format!(
-                    "chunk at byte {start}: {} bytes decompressed, {} declared",
-                    chunk.len(),
-                    header.uncompressed_size
-                )));
-            }
-            if header.crc != 0 && crc32fast::hash(chunk) != header.crc {
-                return Ok(Err(format!("chunk at byte {start}: CRC mismatch, the chunk is corrupt")));
-            }
-        }
-        let mut at = 0;
-        while at < chunk.len() {
-            let Some((opcode, record)) = split_record(&chunk[at..]) else {
-                if whole {
-                    return Ok(Err(format!("chunk at byte {start}: a record overruns the chunk")));
-                }
-                break;
-            };
-            at += 9 + record.len();
-            match dispatch(opcode, record, visit) {
-                Ok(()) => {}
-                Err(Stop::Visitor(e)) => return Err(e),
-                Err(Stop::Damage(what)) => {
-                    damage = Some(format!("chunk at byte {start}: {what}"));
-                    break;
-                }
-            }
-        }
-        Ok(damage.map_or(Ok(()), Err))
+/// A chunk record's body (cut short if `cut`), decompressed into `records` and checked
+/// against its declared size and CRC when whole; as much as decompresses when cut.
+fn chunk(
+    zstd: &mut zstd::bulk::Decompressor<'static>,
+    body: &[u8],
+    start: u64,
+    cut: bool,
+    records: &mut Vec<u8>,
+) -> Result<(), String> {
+    let header = match chunk_header(body) {
+        Ok(h) => h,
+        Err(what) if cut => return Err(format!("the file ends inside a chunk header ({what})")),
+        Err(what) => return Err(format!("chunk at byte {start}: {what}")),
+    };
+    if header.uncompressed_size > MAX_RECORD {
+        return Err(format!(
+            "chunk at byte {start} claims {} uncompressed bytes: a corrupt length",
+            header.uncompressed_size
+        ));
     }
+    let compressed = &body[header.records_start..];
+    let compressed = &compressed[..compressed.len().min(header.records_length as usize)];
+    let whole = compressed.len() as u64 == header.records_length;
+    let decoded = decompress(zstd, header.compression, compressed, header.uncompressed_size as usize, whole, records);
+    if !whole {
+        return Ok(());
+    }
+    decoded.map_err(|what| format!("chunk at byte {start}: {what}"))?;
+    if records.len() as u64 != header.uncompressed_size {
+        return Err(format!(
+            "chunk at byte {start}: {} bytes decompressed, {} declared",
+            records.len(),
+            header.uncompressed_size
+        ));
+    }
+    if header.crc != 0 && crc32fast::hash(records) != header.crc {
+        return Err(format!("chunk at byte {start}: CRC mismatch, the chunk is corrupt"));
+    }
+    Ok(())
 }
 
 /// A chunk's header fields.

@@ -14,7 +14,7 @@ use serde::Serialize;
 use crate::error::LogError;
 use crate::log::{ESTIMATE, TRUTH};
 use crate::metrics::{compare_with_running_rmse, running_rmse, Metrics};
-use crate::psd::{agreement_band, welch, Spectrum};
+use crate::psd::{agreement_band, welch_pair, Spectrum};
 use crate::read::Run;
 
 /// How to analyse.
@@ -174,8 +174,7 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             inside as f64 / truth_values.len() as f64
         });
         let fs = 1.0 / dt;
-        let truth_spectrum = welch(&truth_values, fs, options.psd_segment);
-        let estimate_spectrum = welch(&estimate_values, fs, options.psd_segment);
+        let [truth_spectrum, estimate_spectrum] = welch_pair(&truth_values, &estimate_values, fs, options.psd_segment);
         reports.push(PairReport {
             truth: t_name,
             estimate: e_name,
@@ -211,8 +210,12 @@ enum Common {
 }
 
 impl Common {
-    /// By a merge pass over two strictly increasing time series (two when they do not line up).
+    /// By a merge pass over two strictly increasing time series (two when they do not line
+    /// up; none when they are the same series, the usual case).
     fn of(a: &[f64], b: &[f64]) -> Self {
+        if a == b {
+            return Common::Ranges { a: 0, b: 0, len: a.len() };
+        }
         let mut first = None;
         let mut len = 0;
         let mut lined_up = true;
