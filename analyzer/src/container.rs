@@ -1,5 +1,5 @@
 //! The MCAP container, read as a stream: the records of the data section in file order,
-//! chunks decompressed (zstd, lz4 or none) and checked against their CRC, one chunk in
+//! chunks decompressed (zstd, lz4 or none) and checked against their CRC, a few chunks in
 //! memory at a time. It knows nothing of the kalfmu format; `read.rs` does.
 //!
 //! A log whose writer died ends without its summary and footer, possibly in the middle of
@@ -295,7 +295,7 @@ struct Producer<R> {
     input: R,
     file_len: u64,
     offset: u64,
-    /// Chunks met so far: the odd ones go on compressed.
+    /// Chunks met so far: every second one goes on compressed, for the consumer.
     chunks: u64,
     pieces: std::sync::mpsc::SyncSender<Produced>,
     spare: std::sync::mpsc::Receiver<Vec<u8>>,

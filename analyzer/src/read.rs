@@ -94,9 +94,10 @@ pub fn read_log(path: &Path) -> Result<Run, LogError> {
     // Channel id → 1 + index in `channels` (0: not seen yet); ids are u16.
     let mut slots = vec![0u32; 1 << 16];
     let counts = message_counts(path).unwrap_or_default();
-    // A count from a corrupt summary could ask for any memory: none is believed beyond
-    // what the file could hold at a compression ratio of 64 (values that are all zero).
-    let most = std::fs::metadata(path).map_or(0, |m| m.len().saturating_mul(64 / 8));
+    // A count from a corrupt summary could ask for any memory: none above 8 messages per
+    // byte of file is believed (the smallest message, 40 bytes, would need a compression
+    // ratio of 320).
+    let most = std::fs::metadata(path).map_or(0, |m| m.len().saturating_mul(8));
     let ending = read_records(path, |record| {
         match record {
             Record::Message { channel_id, log_time, data } => {

@@ -270,3 +270,27 @@ fn merge(a: &[f64], b: &[f64], mut matched: impl FnMut(usize, usize)) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shared_samples_are_borrowed_when_they_line_up_and_paired_when_not() {
+        let a = [0.0, 0.01, 0.02, 0.03, 0.04];
+        let values = [10.0, 11.0, 12.0, 13.0, 14.0];
+        // The same stamps, and a channel starting one sample later (as /prediction does).
+        assert!(matches!(Common::of(&a, &a), Common::Ranges { a: 0, b: 0, len: 5 }));
+        let later = [0.01, 0.02, 0.03, 0.04, 0.05];
+        let shifted = Common::of(&a, &later);
+        assert!(matches!(shifted, Common::Ranges { a: 1, b: 0, len: 4 }));
+        assert!(matches!(shifted.pick(&values, 0), Cow::Borrowed([11.0, 12.0, 13.0, 14.0])));
+        // A gap: the samples either side are paired by their stamps.
+        let gap = [0.0, 0.02, 0.03, 0.05];
+        let paired = Common::of(&a, &gap);
+        assert_eq!(paired.len(), 3);
+        assert_eq!(paired.pick(&values, 0).as_ref(), [10.0, 12.0, 13.0]);
+        assert_eq!(paired.pick(&[1.0, 2.0, 3.0, 4.0], 1).as_ref(), [1.0, 2.0, 3.0]);
+        assert_eq!(Common::of(&a, &[1.0, 2.0]).len(), 0);
+    }
+}
