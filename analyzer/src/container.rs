@@ -112,7 +112,9 @@ pub fn read_records(
     let io = |source| LogError::Io { file: path.to_path_buf(), source };
     let file = File::open(path).map_err(io)?;
     let file_len = file.metadata().map_err(io)?.len();
-    let mut input = BufReader::with_capacity(1 << 20, file);
+    // Small: the chunks (hundreds of kB) are longer, so they bypass the buffer and are
+    // copied once, straight from the file into their own buffers.
+    let mut input = BufReader::with_capacity(1 << 16, file);
     let mut magic = [0u8; 8];
     let got = read_up_to(&mut input, &mut magic).map_err(io)?;
     if magic[..got] != MAGIC[..got] || got == 0 {
