@@ -8,4 +8,5 @@ pub mod replay;
 pub mod reproduce;
 pub mod s1;
 pub mod s1_faults;
+pub mod s2;
 pub mod sweep;

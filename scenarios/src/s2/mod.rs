@@ -1,0 +1,15 @@
+//! Study S2: wheel–rail vertical forces from car-body, bogie and axle-box accelerations
+//! (seed `002_…`: a 10-DOF vertical vehicle augmented with the four wheel–rail forces,
+//! SRCKF). `SCENARIOS.md` digests the paper.
+//!
+//! Built so far: the truth, a vehicle–track coupled model richer than the estimator's
+//! ([`plant`]): the vehicle ([`vehicle`]) on one rail of a ballasted track ([`track`])
+//! through Hertz contacts, over irregularities ([`irregularity`]), with its data in one
+//! place ([`parameters`]). The estimator, its FMU and the study's results are still to come
+//! (issue 19); `reproduce` lists S2 as not built.
+
+pub mod irregularity;
+pub mod parameters;
+pub mod plant;
+pub mod track;
+pub mod vehicle;
