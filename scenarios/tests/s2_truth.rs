@@ -2,6 +2,8 @@
 //! resonances, a closed-form beam on elastic foundation, its own finer step, and the
 //! spectrum its random track is drawn from.
 
+use estimator::models::{PiecewiseLinear, VerticalVehicle, WheelRailVertical};
+use estimator::{Observation, VectorField};
 use scenarios::s2::irregularity::{FraSpectrum, Irregularity, RandomProfile};
 use scenarios::s2::parameters::{Track, Vehicle, G};
 use scenarios::s2::plant::{Settings, Simulation};
@@ -181,4 +183,66 @@ fn the_deterministic_irregularities_have_their_depths_and_lengths() {
     // At the weld's centre both waves are at their depths (eq. (25)).
     assert!((weld.at(5.5) - 0.6e-3).abs() < 1e-12, "{}", weld.at(5.5));
     assert!((weld.at(5.45) - 0.5 * 0.3e-3 * (1.0 - (std::f64::consts::TAU * 0.45).cos())).abs() < 1e-12);
+}
+
+/// The estimator's eq. (7) and the truth's vehicle are written apart (coordinates up and
+/// from equilibrium there, down and absolute here); given the truth's contact forces and
+/// the same parameters they must give the same accelerations. What the estimator lacks is
+/// the track and the contact, not the vehicle.
+#[test]
+fn the_estimators_vehicle_is_the_truths_without_the_track() {
+    let v = Vehicle::ZHAI_PASSENGER;
+    let damper = PiecewiseLinear::new(
+        [v.primary_damping, v.primary_damping_beyond, v.primary_damping_beyond],
+        [v.primary_damper_knee; 2],
+    )
+    .unwrap();
+    let model = WheelRailVertical {
+        vehicle: VerticalVehicle::half_of(
+            (v.car_body_mass, v.car_body_pitch_inertia),
+            (v.bogie_mass, v.bogie_pitch_inertia),
+            v.wheelset_mass,
+            (v.primary_stiffness, damper),
+            (v.secondary_stiffness, v.secondary_damping),
+            v.half_bogie_spacing,
+            v.half_wheelbase,
+        ),
+    };
+    assert_eq!(model.vehicle.static_wheel_load, v.static_wheel_load());
+    let settings = Settings::default();
+    let mut sim = simulation(Irregularity::weld(12.0), &settings);
+    let rest: Vec<f64> = sim.displacements()[..10].to_vec();
+    // Truth order [z_c, β_c, z_t1, β_t1, z_t2, β_t2, z_w1..4]; the estimator's
+    // [z_c, β_c, z_t1, z_t2, β_t1, β_t2, z_w1..4].
+    let order = [0, 1, 2, 4, 3, 5, 6, 7, 8, 9];
+    let mut checked = 0;
+    while sim.time() < 0.6 {
+        sim.step();
+        let (u, v, a) = (sim.displacements(), sim.velocities(), sim.accelerations());
+        // Up and from equilibrium; a pitch keeps its sign (a point at d rises by z + d·β).
+        let mut x = [0.0; 24];
+        for (k, &t) in order.iter().enumerate() {
+            let sign = if t == 1 || t == 3 || t == 5 { 1.0 } else { -1.0 };
+            x[k] = sign * (u[t] - rest[t]);
+            x[10 + k] = sign * v[t];
+        }
+        x[20..].copy_from_slice(&sim.contact());
+        let mut dxdt = [0.0; 24];
+        model.derivative(0.0, &x, &[], &mut dxdt);
+        for (k, &t) in order.iter().enumerate() {
+            let sign = if t == 1 || t == 3 || t == 5 { 1.0 } else { -1.0 };
+            let truth = sign * a[t];
+            assert!(
+                (dxdt[10 + k] - truth).abs() < 1e-6 * (1.0 + truth.abs()),
+                "{}: {} against {truth}",
+                WheelRailVertical::STATE_NAMES[10 + k],
+                dxdt[10 + k]
+            );
+        }
+        let mut z = [0.0; 7];
+        model.observe(0.0, &x, &[], &mut z);
+        assert_eq!(z[0], dxdt[10]);
+        checked += 1;
+    }
+    assert!(checked > 5000 && sim.contact()[0] != v.static_wheel_load());
 }

@@ -41,8 +41,9 @@ impl Default for Settings {
 pub struct Sample {
     /// Time (s).
     pub time: f64,
-    /// Bounce accelerations (m/s², down) of the car body, the two bogies and the four
-    /// wheelsets (axle boxes): the seven measurements of eq. (7).
+    /// Bounce accelerations (m/s², up, as accelerometers on the car body, the bogie frames
+    /// and the axle boxes read them, less gravity) of the car body, the two bogies and the
+    /// four wheelsets: the seven measurements of eq. (7).
     pub accelerations: [f64; 7],
     /// The four wheel–rail forces (N).
     pub contact: [f64; 4],
@@ -128,12 +129,10 @@ impl Simulation {
 
     /// The measurements and forces now.
     pub fn sample(&self) -> Sample {
+        // The model's coordinates point down; the measurements up.
         let mut accelerations = [0.0; 7];
-        accelerations[0] = self.a[0];
-        accelerations[1] = self.a[2];
-        accelerations[2] = self.a[4];
-        for j in 0..4 {
-            accelerations[3 + j] = self.a[wheelset(j)];
+        for (m, k) in accelerations.iter_mut().zip([0, 2, 4, wheelset(0), wheelset(1), wheelset(2), wheelset(3)]) {
+            *m = -self.a[k];
         }
         Sample { time: self.time, accelerations, contact: self.contact }
     }
@@ -149,6 +148,16 @@ impl Simulation {
     /// The displacements of every degree of freedom: the vehicle's, then the track's.
     pub fn displacements(&self) -> &[f64] {
         &self.u
+    }
+
+    /// The velocities of every degree of freedom.
+    pub fn velocities(&self) -> &[f64] {
+        &self.v
+    }
+
+    /// The accelerations of every degree of freedom, now.
+    pub fn accelerations(&self) -> &[f64] {
+        &self.a
     }
 
     /// Where the window starts along the track (m).
