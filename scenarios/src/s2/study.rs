@@ -1,0 +1,284 @@
+//! The S2 study: its three cases, the truth sampled as a vehicle's data acquisition would
+//! record it, and the estimator set up as a user would have it.
+//!
+//! **The user's vehicle is not the truth's.** The truth runs the car as it is on the day:
+//! laden (2 t of passengers on the car body), its primary springs 5 % stiffer than the
+//! catalogue (aged rubber) and its dampers' blow-off slope 10 % higher ([`as_built`]). The
+//! estimator has the catalogue values ([`Vehicle::ZHAI_PASSENGER`]) and one measured
+//! number: the static wheel load, as a weighbridge gives it. It has no track and no Hertz
+//! contact.
+
+use estimator::models::{PiecewiseLinear, VerticalVehicle};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::irregularity::{FraSpectrum, Irregularity, RandomProfile};
+use super::parameters::{Track, Vehicle};
+use super::plant::{Settings as PlantSettings, Simulation};
+
+/// The excitations of the paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Case {
+    /// A random track (FRA class 5).
+    Random,
+    /// A corrugation 0.1 mm / 0.5 m.
+    Corrugation,
+    /// A weld, 0.3 mm / 1.0 m plus 0.3 mm / 0.1 m.
+    Weld,
+}
+
+impl Case {
+    /// The three cases in the paper's order.
+    pub const ALL: [Case; 3] = [Case::Random, Case::Corrugation, Case::Weld];
+
+    /// Its name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Case::Random => "random",
+            Case::Corrugation => "corrugation",
+            Case::Weld => "weld",
+        }
+    }
+
+    /// The rail under the run: the front wheel (10.2 m ahead of the car body's centre at the
+    /// start) meets a corrugation 0.5 s in and a weld 1 s in; a random track is sampled over
+    /// the whole run.
+    pub fn irregularity(&self, settings: &Settings) -> Irregularity {
+        let front = Vehicle::ZHAI_PASSENGER.wheel_offsets()[0];
+        match self {
+            Case::Random => {
+                let end = settings.speed * settings.duration + front + 1.0;
+                Irregularity::Random(RandomProfile::sample(&settings.spectrum, settings.seed, -front - 1.0, end))
+            }
+            Case::Corrugation => Irregularity::corrugation(front + 0.5 * settings.speed),
+            Case::Weld => Irregularity::weld(front + settings.speed),
+        }
+    }
+}
+
+/// How to run the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Speed (m/s); 80 km/h.
+    pub speed: f64,
+    /// Sampling rate of the measurements (Hz): 200 (the paper) or 1000 (axle-box data
+    /// acquisition).
+    pub rate: f64,
+    /// Simulated time (s).
+    pub duration: f64,
+    /// Seed of the random track and of the sensor noise.
+    pub seed: u64,
+    /// Sensor noise: white, this fraction of each channel's RMS.
+    pub noise_fraction: f64,
+    /// The random track's spectrum.
+    pub spectrum: FraSpectrum,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            speed: 80.0 / 3.6,
+            rate: 1000.0,
+            duration: 4.0,
+            seed: 1,
+            noise_fraction: 0.02,
+            spectrum: FraSpectrum::CLASS_5,
+        }
+    }
+}
+
+/// The truth at the sample times.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Truth {
+    /// Sample times (s), from 0.
+    pub time: Vec<f64>,
+    /// The seven accelerations, noise-free (m/s², up).
+    pub accelerations: Vec<[f64; 7]>,
+    /// The four wheel–rail forces (N).
+    pub contact: Vec<[f64; 4]>,
+}
+
+/// What the sensors recorded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurements {
+    /// The seven accelerations with their noise (m/s², up).
+    pub accelerations: Vec<[f64; 7]>,
+    /// The noise's standard deviation per channel (m/s²).
+    pub noise_std: [f64; 7],
+}
+
+/// The car as it runs: the catalogue vehicle laden with 2 t on the car body, primary springs
+/// 5 % stiffer, damper blow-off slope 10 % higher. [est]
+pub fn as_built() -> Vehicle {
+    let catalogue = Vehicle::ZHAI_PASSENGER;
+    Vehicle {
+        car_body_mass: catalogue.car_body_mass + 2_000.0,
+        // The passengers sit along the car: the pitch inertia grows as a uniform load would.
+        car_body_pitch_inertia: catalogue.car_body_pitch_inertia * (catalogue.car_body_mass + 2_000.0)
+            / catalogue.car_body_mass,
+        primary_stiffness: catalogue.primary_stiffness * 1.05,
+        primary_damping_beyond: catalogue.primary_damping_beyond * 1.10,
+        ..catalogue
+    }
+}
+
+/// The vehicle as the estimator knows it: `catalogue` halved onto one rail, with the static
+/// wheel load `weighed` (N) instead of the catalogue's.
+pub fn user_vehicle(catalogue: &Vehicle, weighed: f64) -> VerticalVehicle {
+    let v = catalogue;
+    let damper = PiecewiseLinear::new(
+        [v.primary_damping, v.primary_damping_beyond, v.primary_damping_beyond],
+        [v.primary_damper_knee; 2],
+    )
+    .expect("a catalogue damper is a valid law");
+    VerticalVehicle {
+        static_wheel_load: weighed,
+        ..VerticalVehicle::half_of(
+            (v.car_body_mass, v.car_body_pitch_inertia),
+            (v.bogie_mass, v.bogie_pitch_inertia),
+            v.wheelset_mass,
+            (v.primary_stiffness, damper),
+            (v.secondary_stiffness, v.secondary_damping),
+            v.half_bogie_spacing,
+            v.half_wheelbase,
+        )
+    }
+}
+
+/// Runs the truth of `case` on the as-built car and samples it at `settings.rate`.
+pub fn simulate(case: Case, settings: &Settings) -> Truth {
+    let plant = PlantSettings { speed: settings.speed, ..PlantSettings::default() };
+    let mut sim = Simulation::new(as_built(), Track::BALLASTED, case.irregularity(settings), &plant);
+    let per_sample = (1.0 / (settings.rate * plant.dt)).round() as usize;
+    let samples = (settings.duration * settings.rate).round() as usize;
+    let mut truth = Truth::default();
+    for k in 0..=samples {
+        if k > 0 {
+            for _ in 0..per_sample {
+                sim.step();
+            }
+        }
+        let sample = sim.sample();
+        truth.time.push(k as f64 / settings.rate);
+        truth.accelerations.push(sample.accelerations);
+        truth.contact.push(sample.contact);
+    }
+    truth
+}
+
+/// Adds seeded white noise of `fraction` of each channel's RMS to the accelerations.
+pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
+    let n = truth.accelerations.len().max(1) as f64;
+    let mut noise_std = [0.0; 7];
+    for a in &truth.accelerations {
+        for (s, v) in noise_std.iter_mut().zip(a) {
+            *s += v * v;
+        }
+    }
+    noise_std = noise_std.map(|s| fraction * (s / n).sqrt());
+    // Its own stream: the track's seed must not also draw the noise.
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F_5E_5501);
+    let accelerations = truth
+        .accelerations
+        .iter()
+        .map(|a| {
+            let mut z = *a;
+            for (zi, s) in z.iter_mut().zip(noise_std) {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                *zi += s * e;
+            }
+            z
+        })
+        .collect();
+    Measurements { accelerations, noise_std }
+}
+
+/// The filter set-up: eq. (22) of the paper, except the forces' noise, set as an intensity
+/// (so that it means the same at 200 Hz and 1 kHz), and `R`, set from the noise added.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tuning {
+    /// Process noise variance per sample of the six car-body and bogie coordinates and
+    /// their velocities (eq. (22): 1e-3).
+    pub body_variance: f64,
+    /// … of the four wheelset coordinates and their velocities (eq. (22): 1e-6).
+    pub wheelset_variance: f64,
+    /// The forces' random-walk intensity (N²/s): `Q_F = q·Δt` per sample. [est: 1e13, from
+    /// a first probe over 1e11–1e14; eq. (22) has 1e9 per 5 ms sample, 2e11 N²/s]
+    pub force_intensity: f64,
+    /// The sensors' noise (m/s²): `R = diag(σ²)`.
+    pub sensor_std: [f64; 7],
+    /// Prior variance of every state but the forces (eq. (22): 1e-2).
+    pub prior_variance: f64,
+    /// Sample time (s).
+    pub dt: f64,
+}
+
+impl Tuning {
+    /// The study's set-up for these settings and sensors.
+    pub fn new(settings: &Settings, sensor_std: [f64; 7]) -> Self {
+        Self {
+            body_variance: 1e-3,
+            wheelset_variance: 1e-6,
+            force_intensity: 1e13,
+            sensor_std,
+            prior_variance: 1e-2,
+            dt: 1.0 / settings.rate,
+        }
+    }
+
+    /// `Q` and `R` for the library's filters, in the state order of
+    /// [`WheelRailVertical`](estimator::models::WheelRailVertical).
+    pub fn noise(&self) -> estimator::Noise {
+        let mut q = Vec::with_capacity(24);
+        for _ in 0..2 {
+            q.extend([self.body_variance; 6]);
+            q.extend([self.wheelset_variance; 4]);
+        }
+        q.extend([self.force_intensity * self.dt; 4]);
+        let r: Vec<f64> = self.sensor_std.iter().map(|s| s * s).collect();
+        estimator::Noise::diagonal(&q, &r).expect("the S2 tuning is a valid covariance pair")
+    }
+
+    /// The prior: at static equilibrium with the forces at the static wheel load (eq. (22)).
+    pub fn prior(&self, vehicle: &VerticalVehicle) -> estimator::Gaussian {
+        let mut mean = [0.0; 24];
+        mean[20..].fill(vehicle.static_wheel_load);
+        estimator::Gaussian::diagonal(&mean, &[self.prior_variance; 24])
+    }
+}
+
+/// One filter's estimates of the four forces, sample by sample.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Estimates {
+    /// The forces (N).
+    pub forces: Vec<[f64; 4]>,
+    /// Their standard deviations (N).
+    pub std: Vec<[f64; 4]>,
+}
+
+/// Runs the filter of `kind` (the user's vehicle, RK4 once per sample) over the measurements.
+pub fn run_filter(
+    kind: estimator::FilterKind,
+    vehicle: VerticalVehicle,
+    tuning: &Tuning,
+    measurements: &Measurements,
+) -> Result<Estimates, String> {
+    use estimator::models::WheelRailVertical;
+    let model = estimator::Discretized::rk4(WheelRailVertical { vehicle }, 1);
+    let unscented = estimator::UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
+    let mut filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(&vehicle), unscented)
+        .map_err(|e| format!("setup: {e}"))?;
+    let mut estimates = Estimates::default();
+    for (k, z) in measurements.accelerations.iter().enumerate() {
+        let predicted = if k == 0 { Ok(()) } else { filter.predict(&[], tuning.dt) };
+        predicted
+            .and_then(|_| filter.update(z).map(|_| ()))
+            .map_err(|e| format!("t = {:.3} s (sample {k}): {e}", k as f64 * tuning.dt))?;
+        let force = |j: usize| filter.mean()[WheelRailVertical::FORCES + j];
+        let std = |j: usize| filter.variance(WheelRailVertical::FORCES + j).max(0.0).sqrt();
+        estimates.forces.push([0, 1, 2, 3].map(force));
+        estimates.std.push([0, 1, 2, 3].map(std));
+    }
+    Ok(estimates)
+}
