@@ -178,7 +178,7 @@ pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
     }
     noise_std = noise_std.map(|s| fraction * (s / n).sqrt());
     // Its own stream: the track's seed must not also draw the noise.
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F_5E_5501);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F5E_5501);
     let accelerations = truth
         .accelerations
         .iter()
