@@ -53,3 +53,19 @@ fn the_srckf_on_the_users_model_follows_every_wheel_through_a_weld_at_1_khz() {
         assert!(c > 0.98, "wheel {}: correlation {c}", j + 1);
     }
 }
+
+#[test]
+fn every_filter_kind_runs_the_24_state_model() {
+    let settings = Settings { duration: 2.0, ..Settings::default() };
+    let truth = simulate(Case::Corrugation, &settings);
+    let measurements = measure(&truth, settings.noise_fraction, settings.seed);
+    let vehicle = user_vehicle(&Vehicle::ZHAI_PASSENGER, as_built().static_wheel_load());
+    let tuning = Tuning::new(&settings, measurements.noise_std);
+    for kind in FilterKind::ALL {
+        let estimates = run_filter(kind, vehicle, &tuning, &measurements).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        let t: Vec<f64> = truth.contact[500..].iter().map(|c| c[0]).collect();
+        let e: Vec<f64> = estimates.forces[500..].iter().map(|f| f[0]).collect();
+        let c = correlation(&t, &e);
+        assert!(c > 0.99, "{kind}: correlation {c}");
+    }
+}
