@@ -70,10 +70,26 @@ def analyzer_bin() -> Path:
 
 
 @pytest.fixture(scope="session")
-def s1_fmu(tmp_path_factory) -> Path:
-    """Path of kalfmu_s1_load.fmu, built and packaged once for the whole
-    session into a pytest temporary directory."""
-    fmu = build_fmus(tmp_path_factory.mktemp("fmus")) / "kalfmu_s1_load.fmu"
+def fmu_dir(tmp_path_factory) -> Path:
+    """Every estimator FMU, built and packaged once for the whole session into a
+    pytest temporary directory."""
+    yield build_fmus(tmp_path_factory.mktemp("fmus"))
+
+
+def packaged(directory: Path, identifier: str) -> Path:
+    fmu = directory / f"{identifier}.fmu"
     if not fmu.is_file():
         raise FileNotFoundError(f"package-fmus succeeded but {fmu} is missing")
-    yield fmu
+    return fmu
+
+
+@pytest.fixture(scope="session")
+def s1_fmu(fmu_dir) -> Path:
+    """Path of kalfmu_s1_load.fmu."""
+    yield packaged(fmu_dir, "kalfmu_s1_load")
+
+
+@pytest.fixture(scope="session")
+def s2_fmu(fmu_dir) -> Path:
+    """Path of kalfmu_s2_wheel_rail.fmu."""
+    yield packaged(fmu_dir, "kalfmu_s2_wheel_rail")

@@ -207,6 +207,8 @@ pub const UNITS: &[Unit] = &[
     Unit { name: "N/m", exponents: [1, 0, -2] },
     Unit { name: "N.s/m", exponents: [1, 0, -1] },
     Unit { name: "N2/s3", exponents: [2, 2, -7] },
+    Unit { name: "N2/s", exponents: [2, 2, -5] },
+    Unit { name: "kg.m2", exponents: [1, 2, 0] },
 ];
 
 /// Read access to the parameter values of an instance, by name.

@@ -39,8 +39,9 @@ fn main() {
             let rmse = (truth.iter().zip(&estimate).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n).sqrt();
             let mean = truth.iter().sum::<f64>() / n;
             let dynamic = (truth.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n).sqrt();
+            let sd = estimates.std.last().unwrap()[j];
             println!(
-                "{:<12} wheel {}: corr {:.4}, RMSE {:.3} kN, dynamic std {:.3} kN, RMSE/std {:.2}",
+                "{:<12} wheel {}: corr {:.4}, RMSE {:.3} kN, dynamic std {:.3} kN, RMSE/std {:.2}, final σ {sd:.0} N",
                 case.name(),
                 j + 1,
                 correlation(&truth, &estimate),

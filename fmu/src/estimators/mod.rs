@@ -4,6 +4,7 @@
 //! here and a line in [`all`].
 
 mod s1_load;
+mod s2_wheel_rail;
 
 use estimator::{FilterKind, Noise, StateEstimator, SupervisorSettings, UnscentedParams};
 
@@ -53,7 +54,7 @@ impl Descriptor {
     /// Completes a description: appends the variables every estimator has and
     /// derives the GUID from the whole table.
     fn finish(mut self) -> Self {
-        self.variables.extend(common_variables());
+        self.variables.extend(common_variables(self.default_experiment.step));
         self.guid = guid_of(self.model_identifier, &self.variables);
         self
     }
@@ -87,7 +88,7 @@ impl Descriptor {
 /// the library keeps no state at all between calls (not even a table it
 /// would never free when an importer unloads it).
 pub fn all() -> Vec<Descriptor> {
-    vec![s1_load::descriptor()]
+    vec![s1_load::descriptor(), s2_wheel_rail::descriptor()]
 }
 
 /// The estimator with this GUID.
@@ -131,8 +132,9 @@ pub fn filter_kind(value: f64) -> Result<FilterKind, String> {
         .ok_or_else(|| format!("parameter filter must be 1 (CKF) … 5 (EKF), got {value}"))
 }
 
-/// The parameters and outputs every estimator FMU has.
-fn common_variables() -> Vec<Variable> {
+/// The parameters and outputs every estimator FMU has; `sample_time` starts at the
+/// estimator's default communication step.
+fn common_variables(sample_time: f64) -> Vec<Variable> {
     vec![
         Variable {
             kind: Kind::Enumeration(&FILTER_KIND),
@@ -140,7 +142,7 @@ fn common_variables() -> Vec<Variable> {
             unit: None,
             ..Variable::parameter("filter", "1", 2.0, "filter method: 1 CKF, 2 SRCKF, 3 SVD-CKF, 4 UKF, 5 EKF")
         },
-        Variable::parameter("sample_time", "s", 0.005, "filter sample time: one predict + update per sample")
+        Variable::parameter("sample_time", "s", sample_time, "filter sample time: one predict + update per sample")
             .bounded(Some(1e-9), None),
         Variable {
             kind: Kind::Enumeration(&INPUT_TIMING),
