@@ -160,16 +160,6 @@ impl Simulation {
         &self.a
     }
 
-    /// Where the window starts along the track (m).
-    pub fn window_origin(&self) -> f64 {
-        self.origin
-    }
-
-    /// The track model.
-    pub fn track(&self) -> &TrackModel {
-        &self.track
-    }
-
     fn update_wheel_shapes(&mut self) {
         let positions = self.wheel_positions();
         let modes = self.track.modes;
