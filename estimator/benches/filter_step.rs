@@ -5,8 +5,10 @@
 //! * `s1_6`: study S1, `Discretized::rk4(Oscillator2DofLoad::new(Oscillator2Dof::stiffness_nonlinear()), 1)`,
 //!   n = 6, m = 2;
 //! * `chain_24`: `Discretized::rk4(SpringChainForces::default(), 1)`, n = 24, m = 7;
+//! * `wheel_rail_24`: study S2, `Discretized::rk4(WheelRailVertical { .. }, 1)` for Zhai's
+//!   passenger car, n = 24, m = 7, with the study's tuning;
 //!
-//! both at `dt = 0.005 s`. Benchmarks are named `step/<model>/<filter>`.
+//! all at `dt = 0.005 s`. Benchmarks are named `step/<model>/<filter>`.
 //!
 //! The measurements are simulated once, before any timing: the same model from
 //! a non-zero initial state with seeded process noise, plus seeded measurement
@@ -32,7 +34,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces};
+use estimator::models::{
+    Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, SpringChainForces, VerticalVehicle, WheelRailVertical,
+};
 use estimator::{
     CubatureKalman, Discretized, ExtendedKalman, FilterError, Gaussian, Model, Noise, SquareRootCubature,
     StateEstimator, SvdCubature, UnscentedKalman, UnscentedParams,
@@ -258,14 +262,43 @@ fn chain() -> Case<Discretized<SpringChainForces>> {
     Case::simulate("chain_24", model, noise, prior, &x0, &q_true, &[1e-2; 7], 2)
 }
 
+/// Study S2: the half vehicle on one rail (Zhai's passenger car), the four wheel–rail
+/// forces as random walks, seven accelerometers; the study's tuning
+/// (`scenarios/src/s2/study.rs`).
+fn wheel_rail() -> Case<Discretized<WheelRailVertical>> {
+    let damper = PiecewiseLinear::new([6e3, 2e3, 2e3], [0.1, 0.1]).expect("a valid damper");
+    let vehicle =
+        VerticalVehicle::half_of((34e3, 2.277e6), (3e3, 2710.0), 1400.0, (0.55e6, damper), (0.4e6, 8e4), 9.0, 1.2);
+    let model = Discretized::rk4(WheelRailVertical { vehicle }, 1);
+    let motion: Vec<f64> = [1e-8; 6].into_iter().chain([1e-10; 4]).collect();
+    let q: Vec<f64> = motion.iter().chain(&motion).copied().chain([1e10 * DT / 1e-3; 4]).collect();
+    let noise = Noise::diagonal(&q, &[2.5e-3; 7]).expect("valid S2 noise");
+    let mut mean = [0.0; 24];
+    mean[20..].fill(vehicle.static_wheel_load);
+    let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
+    // The truth starts displaced and moving, its forces off the static load and drifting.
+    let mut x0 = mean;
+    for i in 0..10 {
+        x0[i] = 1e-4 * (i as f64 + 1.0);
+        x0[10 + i] = if i % 2 == 0 { 0.02 } else { -0.01 };
+    }
+    for (j, f) in x0[20..].iter_mut().enumerate() {
+        *f += 1e3 * (j as f64 - 1.5);
+    }
+    let q_true: Vec<f64> = [0.0; 20].into_iter().chain([1e6; 4]).collect();
+    Case::simulate("wheel_rail_24", model, noise, prior, &x0, &q_true, &[2.5e-3; 7], 3)
+}
+
 fn main() {
-    let (s1, chain) = (s1(), chain());
+    let (s1, chain, wheel_rail) = (s1(), chain(), wheel_rail());
 
     s1.for_each_filter(&mut CheckAndCountAllocations);
     chain.for_each_filter(&mut CheckAndCountAllocations);
+    wheel_rail.for_each_filter(&mut CheckAndCountAllocations);
 
     let mut criterion = Criterion::default().configure_from_args();
     s1.for_each_filter(&mut Bench(&mut criterion));
     chain.for_each_filter(&mut Bench(&mut criterion));
+    wheel_rail.for_each_filter(&mut Bench(&mut criterion));
     criterion.final_summary();
 }

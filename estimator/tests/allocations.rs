@@ -10,7 +10,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use common::*;
-use estimator::models::SpringChainForces;
+use estimator::models::{PiecewiseLinear, SpringChainForces, VerticalVehicle, WheelRailVertical};
 use estimator::{
     CubatureKalman, Discretized, ExtendedKalman, Gaussian, Noise, SquareRootCubature, StateEstimator, Supervisor,
     SupervisorSettings, SvdCubature, UnscentedKalman, UnscentedParams,
@@ -184,5 +184,47 @@ fn no_filter_allocates_per_step_on_the_24_state_chain() {
     ];
     for filter in filters {
         assert_no_allocation_per_step(filter, &zs, 0.005);
+    }
+}
+
+/// Study S2's model: the half vehicle on one rail, Zhai's passenger car.
+fn wheel_rail() -> WheelRailVertical {
+    let damper = PiecewiseLinear::new([6e3, 2e3, 2e3], [0.1, 0.1]).unwrap();
+    WheelRailVertical {
+        vehicle: VerticalVehicle::half_of(
+            (34e3, 2.277e6),
+            (3e3, 2710.0),
+            1400.0,
+            (0.55e6, damper),
+            (0.4e6, 8e4),
+            9.0,
+            1.2,
+        ),
+    }
+}
+
+#[test]
+fn no_filter_allocates_per_step_on_the_wheel_rail_model() {
+    let model = || Discretized::rk4(wheel_rail(), 1);
+    let mut q = vec![1e-8; 6];
+    q.extend([1e-10; 4]);
+    q.extend([1e-8; 6]);
+    q.extend([1e-10; 4]);
+    q.extend([1e10; 4]);
+    let noise = Noise::diagonal(&q, &[2.5e-3; 7]).unwrap();
+    let mut mean = [0.0; 24];
+    mean[20..].fill(wheel_rail().vehicle.static_wheel_load);
+    let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
+    let zs: Vec<Vec<f64>> =
+        (0..100).map(|k| (0..7).map(|i| 0.5 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
+    let filters: Vec<Box<dyn StateEstimator>> = vec![
+        Box::new(CubatureKalman::cubature(model(), noise.clone(), &prior).unwrap()),
+        Box::new(SquareRootCubature::new(model(), noise.clone(), &prior).unwrap()),
+        Box::new(SvdCubature::svd_cubature(model(), noise.clone(), &prior).unwrap()),
+        Box::new(UnscentedKalman::unscented(model(), noise.clone(), &prior, UnscentedParams::default()).unwrap()),
+        Box::new(ExtendedKalman::new(model(), noise, &prior).unwrap()),
+    ];
+    for filter in filters {
+        assert_no_allocation_per_step(filter, &zs, 0.001);
     }
 }
