@@ -6,10 +6,9 @@
 //!
 //!   cargo run --release -p scenarios --example s2_explore -- [RATE] [Q_INTENSITY]
 
-use analyzer::metrics::correlation;
 use estimator::FilterKind;
 use scenarios::s2::parameters::Vehicle;
-use scenarios::s2::study::{as_built, measure, run_filter, simulate, user_vehicle, Case, Settings, Tuning};
+use scenarios::s2::study::{as_built, measure, run_filter, score, simulate, user_vehicle, Case, Settings, Tuning};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -31,23 +30,16 @@ fn main() {
                 continue;
             }
         };
-        let skip = (0.5 * rate) as usize;
-        for j in 0..4 {
-            let truth: Vec<f64> = truth.contact[skip..].iter().map(|c| c[j]).collect();
-            let estimate: Vec<f64> = estimates.forces[skip..].iter().map(|f| f[j]).collect();
-            let n = truth.len() as f64;
-            let rmse = (truth.iter().zip(&estimate).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n).sqrt();
-            let mean = truth.iter().sum::<f64>() / n;
-            let dynamic = (truth.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n).sqrt();
-            let sd = estimates.std.last().unwrap()[j];
+        for (j, s) in score(&truth, &estimates, rate, 0.5).iter().enumerate() {
             println!(
-                "{:<12} wheel {}: corr {:.4}, RMSE {:.3} kN, dynamic std {:.3} kN, RMSE/std {:.2}, final σ {sd:.0} N",
+                "{:<12} wheel {}: corr {:.4}, RMSE {:.3} kN, dynamic std {:.3} kN, RMSE/std {:.2}, final σ {:.0} N",
                 case.name(),
                 j + 1,
-                correlation(&truth, &estimate),
-                rmse / 1e3,
-                dynamic / 1e3,
-                rmse / dynamic
+                s.correlation,
+                s.rmse / 1e3,
+                s.dynamic_std / 1e3,
+                s.rmse / s.dynamic_std,
+                estimates.std.last().expect("a sample")[j]
             );
         }
     }

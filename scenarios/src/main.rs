@@ -4,6 +4,7 @@
 //!   scenarios reproduce [--study s1] [--quick]
 //!   scenarios s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
 //!   scenarios s1-faults [--case stiffness/random] [--shard K/N]
+//!   scenarios s2-sweep [--speeds 40,80,120,160] [--errors 0.05,0.1] [--rates 200,1000] [--seeds 3] [--shard K/N]
 //!   scenarios replay < spec.json > estimates.json
 //!   scenarios s1-export --case stiffness/random [--duration 60] [--seed 1] [--noise 0.02] --out s1.csv
 
@@ -26,6 +27,8 @@ enum Command {
     S1Sweep(scenarios::sweep::Args),
     /// Study S1 with gross measurement errors injected, every filter behind the supervisor.
     S1Faults(scenarios::s1_faults::Args),
+    /// Study S2 across speeds, vehicle-parameter errors, sampling rates and track seeds.
+    S2Sweep(scenarios::s2::sweep::Args),
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
     /// Write the noisy accelerations and the true load of one S1 case as CSV (an FMU input table).
@@ -38,6 +41,7 @@ fn main() -> ExitCode {
         Command::Reproduce(args) => scenarios::reproduce::run(args),
         Command::S1Sweep(args) => scenarios::sweep::run(args),
         Command::S1Faults(args) => scenarios::s1_faults::run_command(args),
+        Command::S2Sweep(args) => scenarios::s2::sweep::run(args),
         Command::Replay(args) => scenarios::replay::run(args),
         Command::S1Export(args) => scenarios::export::run(args),
     };

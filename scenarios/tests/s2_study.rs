@@ -69,3 +69,24 @@ fn every_filter_kind_runs_the_24_state_model() {
         assert!(c > 0.99, "{kind}: correlation {c}");
     }
 }
+
+#[test]
+fn the_sweep_prints_a_row_per_case_rate_speed_and_vehicle_and_shards_split_its_runs() {
+    let sweep = |shard: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_scenarios"))
+            .args(["s2-sweep", "--seeds", "2", "--speeds", "80", "--errors", "0.1", "--rates", "1000"])
+            .args(["--duration", "1.5", "--shard", shard])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let whole = sweep("1/1");
+    let rows: Vec<&str> = whole.lines().skip(2).collect();
+    assert_eq!(rows.len(), 9, "3 cases × (catalogue, m_c +10 %, K_p +10 %):\n{whole}");
+    assert!(rows.iter().all(|r| r.contains(" 2 ")), "two seeds per row:\n{whole}");
+    // Two shards hold one seed each of every row (the 18 runs alternate).
+    let half = sweep("1/2");
+    assert_eq!(half.lines().skip(2).count(), 9);
+    assert!(half.lines().skip(2).all(|r| r.contains(" 1 ")), "{half}");
+}

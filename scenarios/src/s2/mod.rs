@@ -18,5 +18,6 @@ pub mod irregularity;
 pub mod parameters;
 pub mod plant;
 pub mod study;
+pub mod sweep;
 pub mod track;
 pub mod vehicle;

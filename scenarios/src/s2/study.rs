@@ -288,3 +288,30 @@ pub fn run_filter(
     }
     Ok(estimates)
 }
+
+/// How one wheel's estimate compares with its truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WheelScore {
+    /// Correlation.
+    pub correlation: f64,
+    /// RMSE (N).
+    pub rmse: f64,
+    /// The true force's standard deviation about its mean: its dynamic part (N).
+    pub dynamic_std: f64,
+}
+
+/// Each wheel's score after the first `settle` seconds (the filter's start-up).
+pub fn score(truth: &Truth, estimates: &Estimates, rate: f64, settle: f64) -> [WheelScore; 4] {
+    let skip = ((settle * rate).round() as usize).min(truth.contact.len());
+    [0, 1, 2, 3].map(|j| {
+        let t: Vec<f64> = truth.contact[skip..].iter().map(|c| c[j]).collect();
+        let e: Vec<f64> = estimates.forces[skip..].iter().map(|f| f[j]).collect();
+        let n = t.len() as f64;
+        let mean = t.iter().sum::<f64>() / n;
+        WheelScore {
+            correlation: analyzer::metrics::correlation(&t, &e),
+            rmse: analyzer::metrics::rmse(&t, &e),
+            dynamic_std: (t.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt(),
+        }
+    })
+}
