@@ -34,9 +34,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use estimator::models::{
-    Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, SpringChainForces, VerticalVehicle, WheelRailVertical,
-};
+use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces, VerticalVehicle, WheelRailVertical};
 use estimator::{
     CubatureKalman, Discretized, ExtendedKalman, FilterError, Gaussian, Model, Noise, SquareRootCubature,
     StateEstimator, SvdCubature, UnscentedKalman, UnscentedParams,
@@ -266,9 +264,7 @@ fn chain() -> Case<Discretized<SpringChainForces>> {
 /// forces as random walks, seven accelerometers; the study's tuning
 /// (`scenarios/src/s2/study.rs`).
 fn wheel_rail() -> Case<Discretized<WheelRailVertical>> {
-    let damper = PiecewiseLinear::new([6e3, 2e3, 2e3], [0.1, 0.1]).expect("a valid damper");
-    let vehicle =
-        VerticalVehicle::half_of((34e3, 2.277e6), (3e3, 2710.0), 1400.0, (0.55e6, damper), (0.4e6, 8e4), 9.0, 1.2);
+    let vehicle = VerticalVehicle::zhai_passenger();
     let model = Discretized::rk4(WheelRailVertical { vehicle }, 1);
     let motion: Vec<f64> = [1e-8; 6].into_iter().chain([1e-10; 4]).collect();
     let q: Vec<f64> = motion.iter().chain(&motion).copied().chain([1e10 * DT / 1e-3; 4]).collect();

@@ -10,10 +10,10 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use common::*;
-use estimator::models::{PiecewiseLinear, SpringChainForces, VerticalVehicle, WheelRailVertical};
+use estimator::models::{SpringChainForces, VerticalVehicle, WheelRailVertical};
 use estimator::{
-    CubatureKalman, Discretized, ExtendedKalman, Gaussian, Noise, SquareRootCubature, StateEstimator, Supervisor,
-    SupervisorSettings, SvdCubature, UnscentedKalman, UnscentedParams,
+    build_filter, Discretized, FilterKind, Gaussian, Model, Noise, StateEstimator, Supervisor, SupervisorSettings,
+    UnscentedParams,
 };
 
 struct Counting;
@@ -80,15 +80,19 @@ fn assert_no_allocation_per_step(mut filter: Box<dyn StateEstimator>, zs: &[Vec<
     assert_eq!(n, 0, "{} allocated {n} times in {} steps", filter.kind(), zs.len());
 }
 
+/// One filter of every kind on `model`.
+fn every_filter<M: Model + Clone + 'static>(
+    model: M,
+    noise: &Noise,
+    prior: &Gaussian,
+    unscented: UnscentedParams,
+) -> Vec<Box<dyn StateEstimator>> {
+    FilterKind::ALL.map(|kind| build_filter(kind, model.clone(), noise.clone(), prior, unscented).unwrap()).into()
+}
+
 fn s1_filters() -> Vec<Box<dyn StateEstimator>> {
     let params = UnscentedParams { alpha: 0.5, beta: 2.0, kappa: 0.0 };
-    vec![
-        Box::new(CubatureKalman::cubature(s1_model(), s1_noise(), &s1_prior()).unwrap()),
-        Box::new(SquareRootCubature::new(s1_model(), s1_noise(), &s1_prior()).unwrap()),
-        Box::new(SvdCubature::svd_cubature(s1_model(), s1_noise(), &s1_prior()).unwrap()),
-        Box::new(UnscentedKalman::unscented(s1_model(), s1_noise(), &s1_prior(), params).unwrap()),
-        Box::new(ExtendedKalman::new(s1_model(), s1_noise(), &s1_prior()).unwrap()),
-    ]
+    every_filter(s1_model(), &s1_noise(), &s1_prior(), params)
 }
 
 #[test]
@@ -166,7 +170,7 @@ fn copying_a_belief_between_twins_allocates_nothing_and_is_exact() {
 
 #[test]
 fn no_filter_allocates_per_step_on_the_24_state_chain() {
-    let model = || Discretized::rk4(SpringChainForces::default(), 1);
+    let model = Discretized::rk4(SpringChainForces::default(), 1);
     let mut q = vec![1e-10; 20];
     q.extend([1e4; 4]);
     let noise = Noise::diagonal(&q, &[1e-4; 7]).unwrap();
@@ -175,37 +179,14 @@ fn no_filter_allocates_per_step_on_the_24_state_chain() {
     let prior = Gaussian::diagonal(&[0.0; 24], &p0);
     let zs: Vec<Vec<f64>> =
         (0..100).map(|k| (0..7).map(|i| 0.01 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
-    let filters: Vec<Box<dyn StateEstimator>> = vec![
-        Box::new(CubatureKalman::cubature(model(), noise.clone(), &prior).unwrap()),
-        Box::new(SquareRootCubature::new(model(), noise.clone(), &prior).unwrap()),
-        Box::new(SvdCubature::svd_cubature(model(), noise.clone(), &prior).unwrap()),
-        Box::new(UnscentedKalman::unscented(model(), noise.clone(), &prior, UnscentedParams::default()).unwrap()),
-        Box::new(ExtendedKalman::new(model(), noise, &prior).unwrap()),
-    ];
-    for filter in filters {
+    for filter in every_filter(model, &noise, &prior, UnscentedParams::default()) {
         assert_no_allocation_per_step(filter, &zs, 0.005);
-    }
-}
-
-/// Study S2's model: the half vehicle on one rail, Zhai's passenger car.
-fn wheel_rail() -> WheelRailVertical {
-    let damper = PiecewiseLinear::new([6e3, 2e3, 2e3], [0.1, 0.1]).unwrap();
-    WheelRailVertical {
-        vehicle: VerticalVehicle::half_of(
-            (34e3, 2.277e6),
-            (3e3, 2710.0),
-            1400.0,
-            (0.55e6, damper),
-            (0.4e6, 8e4),
-            9.0,
-            1.2,
-        ),
     }
 }
 
 #[test]
 fn no_filter_allocates_per_step_on_the_wheel_rail_model() {
-    let model = || Discretized::rk4(wheel_rail(), 1);
+    let model = Discretized::rk4(WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() }, 1);
     let mut q = vec![1e-8; 6];
     q.extend([1e-10; 4]);
     q.extend([1e-8; 6]);
@@ -213,18 +194,11 @@ fn no_filter_allocates_per_step_on_the_wheel_rail_model() {
     q.extend([1e10; 4]);
     let noise = Noise::diagonal(&q, &[2.5e-3; 7]).unwrap();
     let mut mean = [0.0; 24];
-    mean[20..].fill(wheel_rail().vehicle.static_wheel_load);
+    mean[20..].fill(VerticalVehicle::zhai_passenger().static_wheel_load);
     let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
     let zs: Vec<Vec<f64>> =
         (0..100).map(|k| (0..7).map(|i| 0.5 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
-    let filters: Vec<Box<dyn StateEstimator>> = vec![
-        Box::new(CubatureKalman::cubature(model(), noise.clone(), &prior).unwrap()),
-        Box::new(SquareRootCubature::new(model(), noise.clone(), &prior).unwrap()),
-        Box::new(SvdCubature::svd_cubature(model(), noise.clone(), &prior).unwrap()),
-        Box::new(UnscentedKalman::unscented(model(), noise.clone(), &prior, UnscentedParams::default()).unwrap()),
-        Box::new(ExtendedKalman::new(model(), noise, &prior).unwrap()),
-    ];
-    for filter in filters {
+    for filter in every_filter(model, &noise, &prior, UnscentedParams::default()) {
         assert_no_allocation_per_step(filter, &zs, 0.001);
     }
 }

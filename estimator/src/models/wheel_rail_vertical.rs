@@ -84,6 +84,13 @@ impl VerticalVehicle {
         }
     }
 
+    /// Half of Zhai's high-speed passenger car (`VEHICLE_TRACK.md`), its primary damper
+    /// blowing off to a third of its slope beyond 0.1 m/s: the catalogue vehicle of study S2.
+    pub fn zhai_passenger() -> Self {
+        let damper = PiecewiseLinear::new([6e3, 2e3, 2e3], [0.1, 0.1]).expect("a valid damper law");
+        Self::half_of((34e3, 2.277e6), (3e3, 2_710.0), 1_400.0, (0.55e6, damper), (0.4e6, 8e4), 9.0, 1.2)
+    }
+
     /// The accelerations of the ten coordinates, in state order, for positions `z`,
     /// velocities `v` and the wheel–rail forces `f_n`.
     pub fn accelerations(&self, z: &[f64], v: &[f64], f_n: &[f64]) -> [f64; 10] {
