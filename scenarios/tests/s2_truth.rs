@@ -2,11 +2,12 @@
 //! resonances, a closed-form beam on elastic foundation, its own finer step, and the
 //! spectrum its random track is drawn from.
 
-use estimator::models::{PiecewiseLinear, VerticalVehicle, WheelRailVertical};
+use estimator::models::WheelRailVertical;
 use estimator::{Observation, VectorField};
 use scenarios::s2::irregularity::{FraSpectrum, Irregularity, RandomProfile};
 use scenarios::s2::parameters::{Track, Vehicle, G};
 use scenarios::s2::plant::{Settings, Simulation};
+use scenarios::s2::study::vertical_vehicle;
 use scenarios::s2::track::TrackModel;
 use scenarios::s2::vehicle::wheelset;
 
@@ -192,22 +193,7 @@ fn the_deterministic_irregularities_have_their_depths_and_lengths() {
 #[test]
 fn the_estimators_vehicle_is_the_truths_without_the_track() {
     let v = Vehicle::ZHAI_PASSENGER;
-    let damper = PiecewiseLinear::new(
-        [v.primary_damping, v.primary_damping_beyond, v.primary_damping_beyond],
-        [v.primary_damper_knee; 2],
-    )
-    .unwrap();
-    let model = WheelRailVertical {
-        vehicle: VerticalVehicle::half_of(
-            (v.car_body_mass, v.car_body_pitch_inertia),
-            (v.bogie_mass, v.bogie_pitch_inertia),
-            v.wheelset_mass,
-            (v.primary_stiffness, damper),
-            (v.secondary_stiffness, v.secondary_damping),
-            v.half_bogie_spacing,
-            v.half_wheelbase,
-        ),
-    };
+    let model = WheelRailVertical { vehicle: vertical_vehicle(&v) };
     assert_eq!(model.vehicle.static_wheel_load, v.static_wheel_load());
     let settings = Settings::default();
     let mut sim = simulation(Irregularity::weld(12.0), &settings);

@@ -123,27 +123,30 @@ pub fn as_built() -> Vehicle {
     }
 }
 
-/// The vehicle as the estimator knows it: `catalogue` halved onto one rail, with the static
-/// wheel load `weighed` (N) instead of the catalogue's.
-pub fn user_vehicle(catalogue: &Vehicle, weighed: f64) -> VerticalVehicle {
-    let v = catalogue;
+/// `vehicle` as the estimation model has it: halved onto one rail, the same laws (the
+/// primary damper's two slopes), and the static wheel load an eighth of its weight.
+pub fn vertical_vehicle(vehicle: &Vehicle) -> VerticalVehicle {
+    let v = vehicle;
     let damper = PiecewiseLinear::new(
         [v.primary_damping, v.primary_damping_beyond, v.primary_damping_beyond],
         [v.primary_damper_knee; 2],
     )
     .expect("a catalogue damper is a valid law");
-    VerticalVehicle {
-        static_wheel_load: weighed,
-        ..VerticalVehicle::half_of(
-            (v.car_body_mass, v.car_body_pitch_inertia),
-            (v.bogie_mass, v.bogie_pitch_inertia),
-            v.wheelset_mass,
-            (v.primary_stiffness, damper),
-            (v.secondary_stiffness, v.secondary_damping),
-            v.half_bogie_spacing,
-            v.half_wheelbase,
-        )
-    }
+    VerticalVehicle::half_of(
+        (v.car_body_mass, v.car_body_pitch_inertia),
+        (v.bogie_mass, v.bogie_pitch_inertia),
+        v.wheelset_mass,
+        (v.primary_stiffness, damper),
+        (v.secondary_stiffness, v.secondary_damping),
+        v.half_bogie_spacing,
+        v.half_wheelbase,
+    )
+}
+
+/// The vehicle as the estimator knows it: `catalogue` halved onto one rail, with the static
+/// wheel load `weighed` (N) instead of the catalogue's.
+pub fn user_vehicle(catalogue: &Vehicle, weighed: f64) -> VerticalVehicle {
+    VerticalVehicle { static_wheel_load: weighed, ..vertical_vehicle(catalogue) }
 }
 
 /// Runs the truth of `case` on the as-built car and samples it at `settings.rate`.
