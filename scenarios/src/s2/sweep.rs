@@ -64,13 +64,19 @@ impl Variant {
     }
 }
 
-/// One run of the grid.
-#[derive(Debug, Clone)]
-struct Job {
+/// One row of the table: the runs of every seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Row {
     case: Case,
     speed: f64,
     rate: f64,
     variant: Variant,
+}
+
+/// One run of the grid.
+#[derive(Debug, Clone, Copy)]
+struct Job {
+    row: Row,
     seed: u64,
 }
 
@@ -90,23 +96,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                         continue;
                     }
                     for seed in 1..=args.seeds {
-                        jobs.push(Job { case, speed, rate, variant, seed });
+                        jobs.push(Job { row: Row { case, speed, rate, variant }, seed });
                     }
                 }
             }
         }
     }
-    let results = jobs::run(&jobs, args.shard, |job| {
-        let settings = Settings {
-            speed: job.speed / 3.6,
-            rate: job.rate,
-            duration: args.duration,
-            seed: job.seed,
-            ..Settings::default()
-        };
-        let truth = simulate(job.case, &settings);
+    let results = jobs::run(&jobs, args.shard, |&Job { row, seed }| {
+        let settings =
+            Settings { speed: row.speed / 3.6, rate: row.rate, duration: args.duration, seed, ..Settings::default() };
+        let truth = simulate(row.case, &settings);
         let measurements = measure(&truth, settings.noise_fraction, settings.seed);
-        let vehicle = user_vehicle(&job.variant.vehicle(), as_built().static_wheel_load());
+        let vehicle = user_vehicle(&row.variant.vehicle(), as_built().static_wheel_load());
         let tuning = Tuning::new(&settings, measurements.noise_std);
         run_filter(args.filter, vehicle, &tuning, &measurements).map(|e| score(&truth, &e, settings.rate, 0.5))
     });
@@ -123,23 +124,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "case", "Hz", "km/h", "vehicle", "runs", "corr min", "corr mean", "RMSE/σ max"
     );
     let mut failures = 0;
-    let mut keys: Vec<(Case, u64, u64, String)> = Vec::new();
-    for (j, _) in &results {
-        let job = &jobs[*j];
-        let key = (job.case, job.rate as u64, job.speed as u64, job.variant.name());
-        if !keys.contains(&key) {
-            keys.push(key);
-        }
-    }
-    for (case, rate, speed, variant) in keys {
+    // A row's seeds are consecutive jobs, and the results keep the jobs' order.
+    for runs in results.chunk_by(|a, b| jobs[a.0].row == jobs[b.0].row) {
+        let Row { case, speed, rate, variant } = jobs[runs[0].0].row;
+        let label = format!("{:<12} {rate:>6} {speed:>7} {:<10}", case.name(), variant.name());
         let mut correlations = Vec::new();
         let mut worst_ratio: f64 = 0.0;
-        for (j, result) in &results {
-            let job = &jobs[*j];
-            if (job.case, job.rate as u64, job.speed as u64, job.variant.name()) != (case, rate, speed, variant.clone())
-            {
-                continue;
-            }
+        for (j, result) in runs {
             match result {
                 Ok(scores) => {
                     correlations.push(scores.iter().map(|s| s.correlation).fold(f64::INFINITY, f64::min));
@@ -147,12 +138,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 }
                 Err(e) => {
                     failures += 1;
-                    let _ = writeln!(
-                        out,
-                        "{:<12} {rate:>6} {speed:>7} {variant:<10} FAILED (seed {}): {e}",
-                        case.name(),
-                        job.seed
-                    );
+                    let _ = writeln!(out, "{label} FAILED (seed {}): {e}", jobs[*j].seed);
                 }
             }
         }
@@ -161,12 +147,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         let min = correlations.iter().copied().fold(f64::INFINITY, f64::min);
         let mean = correlations.iter().sum::<f64>() / correlations.len() as f64;
-        let _ = writeln!(
-            out,
-            "{:<12} {rate:>6} {speed:>7} {variant:<10} {:>6} {min:>9.4} {mean:>9.4} {worst_ratio:>12.2}",
-            case.name(),
-            correlations.len()
-        );
+        let _ = writeln!(out, "{label} {:>6} {min:>9.4} {mean:>9.4} {worst_ratio:>12.2}", correlations.len());
     }
     print!("{out}");
     if failures > 0 {
