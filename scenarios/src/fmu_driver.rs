@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Context};
+use estimator::FilterKind;
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
 use fmi::traits::{FmiImport, FmiInstance};
@@ -19,7 +20,26 @@ pub struct ImportedFmu {
     units: HashMap<String, String>,
 }
 
+/// The FMU's enumeration value of a filter kind (`FilterKind` in every modelDescription:
+/// the library's order, from 1).
+pub fn filter_enumeration(kind: FilterKind) -> i32 {
+    FilterKind::ALL.iter().position(|k| *k == kind).expect("every kind is listed") as i32 + 1
+}
+
 impl ImportedFmu {
+    /// Loads `<identifier>.fmu` from `dir`, where `package-fmus` writes them; if it is not
+    /// there, says how to package it.
+    pub fn load_packaged(dir: &Path, identifier: &str) -> anyhow::Result<Self> {
+        let path = dir.join(format!("{identifier}.fmu"));
+        if !path.is_file() {
+            bail!(
+                "{} not found: package the FMUs first (cargo run --release -p fmu --bin package-fmus), or run scripts/reproduce",
+                path.display()
+            );
+        }
+        Self::load(&path)
+    }
+
     /// Unpacks and loads the `.fmu` at `path`.
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let import: Fmi2Import =
@@ -104,6 +124,13 @@ impl Instance {
             bail!("the FMU returned a non-finite output at t = {}", self.time);
         }
         Ok(())
+    }
+
+    /// Reads the Integer `outputs` into `values`.
+    pub fn read_integers(&mut self, outputs: &[u32], values: &mut [i32]) -> anyhow::Result<()> {
+        Common::get_integer(&mut self.cs, outputs, values)
+            .map(|_| ())
+            .map_err(|e| anyhow!("fmi2GetInteger at t = {}: {e}", self.time))
     }
 
     /// `fmi2DoStep(t, h)` from the current communication point.

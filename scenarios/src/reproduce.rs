@@ -2,23 +2,19 @@
 //! truth simulator, drives the packaged estimator FMU through the `fmi`
 //! importer exactly as an external simulator would, writes the MCAP log,
 //! analyses it with the analyzer (reading the log back, as a user would), and
-//! prints our figures beside the papers'. Studies not built yet are listed as
-//! such, never skipped silently.
+//! prints our figures beside the papers'. Each study's table is its own
+//! module's (`s1::reproduce`, `s2::reproduce`); studies not built yet are
+//! listed as such, never skipped silently.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use analyzer::compare::compare_runs;
-use analyzer::log::PREDICTION;
-use analyzer::read::read_log;
-use analyzer::report::{analyse, Options, PairReport, Report};
+use analyzer::compare::{compare_runs, Comparison};
+use analyzer::read::Run;
+use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
-use anyhow::{bail, Context};
-use estimator::FilterKind;
-use indicatif::{ProgressBar, ProgressStyle};
+use anyhow::bail;
 
-use crate::fmu_driver::ImportedFmu;
-use crate::s1::{self, Case, Settings};
+use crate::{s1, s2};
 
 /// Command-line arguments of `scenarios reproduce`.
 #[derive(Debug, clap::Args)]
@@ -26,18 +22,22 @@ pub struct Args {
     /// Which study to run: s1, s2, s3, s4, s5 or all.
     #[arg(long, default_value = "all")]
     pub study: String,
-    /// A short run (10 s of signal) for smoke tests; the figures are then not the published set-up.
+    /// A short run for smoke tests (S1: 10 s of signal; S2: 2 s); the figures are then not
+    /// the published set-up.
     #[arg(long)]
     pub quick: bool,
-    /// Seed of the random load and of the measurement noise.
-    #[arg(long, default_value_t = Settings::default().seed)]
+    /// Seed of the random load or track, and of the measurement noise.
+    #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Accelerometer noise as a fraction of each channel's RMS.
-    #[arg(long, default_value_t = Settings::default().noise_fraction)]
+    #[arg(long, default_value_t = 0.02)]
     pub noise: f64,
-    /// Simulated duration in seconds (default 60, or 10 with --quick).
+    /// Simulated duration in seconds (default: S1 60, or 10 with --quick; S2 4, or 2).
     #[arg(long)]
     pub duration: Option<f64>,
+    /// S2's sampling rate (Hz): 1000 (axle-box data acquisition) or 200 (the paper).
+    #[arg(long, default_value_t = s2::study::Settings::default().rate)]
+    pub s2_rate: f64,
     /// Where the packaged FMUs are (`package-fmus` writes them to target/fmu).
     #[arg(long, default_value = "target/fmu")]
     pub fmu_dir: PathBuf,
@@ -49,7 +49,7 @@ pub struct Args {
 /// The studies of `SCENARIOS.md` and whether they are built.
 const STUDIES: [(&str, &str, bool); 5] = [
     ("s1", "dynamic load on a 2-DOF nonlinear chain (SRCKF)", true),
-    ("s2", "wheel-rail vertical forces, 10-DOF vehicle (SRCKF)", false),
+    ("s2", "wheel-rail vertical forces, 10-DOF vehicle (SRCKF)", true),
     ("s3", "left/right wheel-rail forces, 17-DOF vehicle (SRCKF)", false),
     ("s4", "maglev speed from four PRW channels (fusion + UKF)", false),
     ("s5", "missile aerodynamic coefficients (SVD-CKF vs CKF)", false),
@@ -70,14 +70,35 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             println!("{}: {title} — not built yet", id.to_uppercase());
             continue;
         }
-        let settings = Settings {
-            seed: args.seed,
-            noise_fraction: args.noise,
-            duration: args.duration.unwrap_or(if args.quick { 10.0 } else { Settings::default().duration }),
-            ..Settings::default()
+        failures += match id {
+            "s1" => {
+                let settings = s1::Settings {
+                    seed: args.seed,
+                    noise_fraction: args.noise,
+                    duration: args.duration.unwrap_or(if args.quick { 10.0 } else { s1::Settings::default().duration }),
+                    ..s1::Settings::default()
+                };
+                settings.validate().map_err(anyhow::Error::msg)?;
+                s1::reproduce::report(&settings, &args.fmu_dir, &args.out)?
+            }
+            "s2" => {
+                let settings = s2::study::Settings {
+                    seed: args.seed,
+                    noise_fraction: args.noise,
+                    rate: args.s2_rate,
+                    duration: args.duration.unwrap_or(if args.quick {
+                        2.0
+                    } else {
+                        s2::study::Settings::default().duration
+                    }),
+                    ..s2::study::Settings::default()
+                };
+                settings.validate().map_err(anyhow::Error::msg)?;
+                s2::reproduce::report(&settings, &args.fmu_dir, &args.out)?
+            }
+            _ => unreachable!("every built study has a table"),
         };
-        settings.validate().map_err(anyhow::Error::msg)?;
-        failures += report_s1(&settings, &args.fmu_dir, &args.out)?;
+        println!();
     }
     if failures > 0 {
         bail!("{failures} filter run(s) failed");
@@ -85,155 +106,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs S1 through its FMU and prints the table; returns the number of failed runs.
-fn report_s1(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
-    let fmu_path = fmu_dir.join("kalfmu_s1_load.fmu");
-    if !fmu_path.is_file() {
-        bail!(
-            "{} not found: package the FMUs first (cargo run --release -p fmu --bin package-fmus), or run scripts/reproduce",
-            fmu_path.display()
-        );
-    }
-    let fmu = ImportedFmu::load(&fmu_path)?;
-    let dir = out.join("s1");
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    println!(
-        "S1: dynamic load on a 2-DOF nonlinear chain — {} s at {} Hz, truth RK4 at {:.0e} s, accelerometer noise {:.1} % of RMS, seed {}",
-        settings.duration,
-        settings.rate,
-        settings.dt() / settings.truth_substeps() as f64,
-        100.0 * settings.noise_fraction,
-        settings.seed
-    );
-    println!(
-        "estimates from {} driven through the fmi importer; per run a log (<case>_<filter>.mcap), per case a comparison \
-         of every filter (<case>.json, and the Rerun recording <case>.rrd) in {}",
-        fmu_path.display(),
-        dir.display()
-    );
-    println!(
-        "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
-        settings.rmse_window
-    );
-    println!(
-        "two readings of the FMU's outputs, as a master has them: at t after the inputs of t were set (feedthrough, \
-         the first columns) and right after fmi2DoStep(t, dt), the estimate at t + dt predicted from the measurements \
-         up to t ('after step'); each compared with the truth at its own time stamp"
-    );
-    let runs = (Case::ALL.len() * FilterKind::ALL.len()) as u64;
-    let ticks_per_run = (settings.samples() / 1000) as u64;
-    let bar = ProgressBar::new(runs * ticks_per_run.max(1));
-    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]").expect("a valid template"));
-    let mut table = String::new();
-    let _ = writeln!(
-        table,
-        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}",
-        "case",
-        "filter",
-        "corr",
-        "paper",
-        "RMSE conv",
-        "run.peak",
-        "paper",
-        "run.max cv",
-        "paper",
-        "t_conv",
-        "PSD ±3dB Hz",
-        "after step",
-        "RMSE conv"
-    );
-    let mut failures = 0;
-    let mut recordings = Vec::new();
-    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
-    let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-    for case in Case::ALL {
-        let (truth, measurements) = s1::simulate(&case, settings);
-        let published = case.published();
-        let case_stem = dir.join(case.to_string().replace('/', "_"));
-        // Each filter's run through the FMU, logged and read back.
-        let mut runs = Vec::new();
-        let mut rows: Vec<(FilterKind, anyhow::Result<usize>)> = Vec::new();
-        for kind in FilterKind::ALL {
-            bar.set_message(format!("{case} {kind}"));
-            let log = case_stem.with_file_name(format!(
-                "{}_{}.mcap",
-                case.to_string().replace('/', "_"),
-                kind.name().to_lowercase().replace('-', "")
-            ));
-            let sim = s1::fmu_run::Simulated { case: &case, settings, truth: &truth, measurements: &measurements };
-            let result = s1::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1))
-                .and_then(|()| Ok(read_log(&log)?))
-                .map(|run| {
-                    runs.push(run);
-                    runs.len() - 1
-                });
-            rows.push((kind, result));
-        }
-        // All of the case's runs in one comparison: JSON and one recording.
-        let compared = compare_runs(&runs, &options).and_then(|comparison| {
-            let recording = case_stem.with_extension("rrd");
-            comparison.write_json(&case_stem.with_extension("json"))?;
-            write_rrd(&comparison, &runs, &recording)?;
-            recordings.push(recording);
-            let after_step =
-                runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
-            let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
-            let loads = comparison.runs.iter().zip(&after_step).map(|(report, after)| {
-                let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
-                    return Err(format!("the report of {} has no load pair", report.file));
-                };
-                Ok((pair.metrics, pair.psd_agreement_band, after.metrics))
-            });
-            Ok(loads.collect::<Vec<_>>())
-        });
-        let loads = match compared {
-            Ok(loads) => loads,
-            Err(e) => {
-                failures += 1;
-                let _ = writeln!(table, "{:<19} FAILED to compare the filters: {e}", case.to_string());
-                continue;
-            }
-        };
-        for (kind, result) in rows {
-            match result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg)) {
-                Ok((c, band, a)) => {
-                    let band = band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
-                    let _ = writeln!(
-                        table,
-                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}",
-                        case.to_string(),
-                        kind.name(),
-                        c.correlation,
-                        published.correlation,
-                        c.rmse_converged,
-                        c.running_rmse_peak,
-                        paper(published.running_rmse_peak),
-                        c.running_rmse_max_converged,
-                        paper(published.running_rmse_max_converged),
-                        c.convergence_time,
-                        band,
-                        a.correlation,
-                        a.rmse_converged
-                    );
-                }
-                Err(e) => {
-                    failures += 1;
-                    let _ = writeln!(table, "{:<19} {:<8} FAILED: {e:#}", case.to_string(), kind.name());
-                }
-            }
-        }
-    }
-    bar.finish_and_clear();
-    print!("{table}");
-    println!("paper: SRCKF figures of Gong et al. 2024 (correlation; running-RMSE peak; bound after the start), N");
-    println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
-    for recording in &recordings {
-        println!("  {}", recording.display());
-    }
-    Ok(failures)
+/// One case's runs compared: the comparison, written as `<stem>.json` and as the Rerun
+/// recording `<stem>.rrd`, whose path is returned with it.
+pub(crate) fn compare_case<'a>(
+    runs: &'a [Run],
+    options: &Options,
+    stem: &Path,
+) -> Result<(Comparison<'a>, PathBuf), analyzer::error::LogError> {
+    let comparison = compare_runs(runs, options)?;
+    let recording = stem.with_extension("rrd");
+    comparison.write_json(&stem.with_extension("json"))?;
+    write_rrd(&comparison, runs, &recording)?;
+    Ok((comparison, recording))
 }
 
-/// The report's pair of the load `F`.
-fn load_pair<'a>(report: &'a Report<'_>) -> Option<&'a PairReport<'a>> {
-    report.pairs.iter().find(|p| p.truth == "F")
+/// The log of one filter's run of a case: `<stem>_<filter>.mcap`, e.g. `weld_srckf.mcap`.
+pub(crate) fn log_path(stem: &Path, kind: estimator::FilterKind) -> PathBuf {
+    let case = stem.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    stem.with_file_name(format!("{case}_{}.mcap", kind.name().to_lowercase().replace('-', "")))
 }

@@ -16,7 +16,7 @@ use estimator::FilterKind;
 
 use super::plant::Truth;
 use super::{Case, Measurements, Settings, Tuning};
-use crate::fmu_driver::ImportedFmu;
+use crate::fmu_driver::{filter_enumeration, ImportedFmu};
 
 /// The FMU's outputs that are logged on `/estimate`; those without `_std`
 /// have a namesake on `/truth`.
@@ -35,11 +35,6 @@ const OUTPUTS: [&str; 13] = [
     "F_dot_std",
     "nis",
 ];
-
-/// The FMU's enumeration value of a filter kind (`FilterKind` in its modelDescription).
-fn filter_enumeration(kind: FilterKind) -> i32 {
-    FilterKind::ALL.iter().position(|k| *k == kind).expect("every kind is listed") as i32 + 1
-}
 
 /// The FMU parameters of a case: the paper's chain and the study's one tuning.
 fn parameters(case: &Case, settings: &Settings, measurements: &Measurements) -> Vec<(&'static str, f64)> {

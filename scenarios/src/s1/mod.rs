@@ -15,6 +15,7 @@ pub mod faults;
 pub mod fmu_run;
 pub mod load;
 pub mod plant;
+pub mod reproduce;
 
 use std::fmt;
 

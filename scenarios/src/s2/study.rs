@@ -88,6 +88,30 @@ impl Default for Settings {
     }
 }
 
+impl Settings {
+    /// Checks that the settings can be run: a positive speed and duration, a rate whose
+    /// sample time is a whole number of the truth's integration steps, a noise fraction of
+    /// at least zero.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [("speed", self.speed), ("rate", self.rate), ("duration", self.duration)];
+        if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0 && v.is_finite())) {
+            return Err(format!("{name} must be positive, got {v}"));
+        }
+        let steps = 1.0 / (self.rate * PlantSettings::default().dt);
+        if steps < 1.0 || (steps - steps.round()).abs() > 1e-9 * steps {
+            return Err(format!(
+                "the sample time 1/{} s must be a whole number of the truth's {} s steps",
+                self.rate,
+                PlantSettings::default().dt
+            ));
+        }
+        if !(self.noise_fraction >= 0.0 && self.noise_fraction.is_finite()) {
+            return Err(format!("the noise fraction must be at least 0, got {}", self.noise_fraction));
+        }
+        Ok(())
+    }
+}
+
 /// The truth at the sample times.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Truth {
@@ -205,20 +229,24 @@ pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
 ///   forces' σ grows to 270 kN while their error is 0.2 kN; with these, σ is about 0.8 kN
 ///   and the correlations rise (first probe, `examples/s2_explore.rs`, wheel 1 at 1 kHz:
 ///   random 0.986 → 0.9985, corrugation 0.9991 → 0.9997, weld 0.993 → 0.988).
+///
+/// The noises are held as standard deviations, as the FMU takes them: the FMU's filter and
+/// the in-process one then square the same numbers and agree to the last bit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tuning {
-    /// Process noise variance per sample of the six car-body and bogie coordinates and
-    /// their velocities (eq. (22): 1e-3; here 1e-8).
-    pub body_variance: f64,
-    /// … of the four wheelset coordinates and their velocities (eq. (22): 1e-6; here 1e-10).
-    pub wheelset_variance: f64,
+    /// Process noise std per sample of the six car-body and bogie coordinates and their
+    /// velocities (eq. (22): variance 1e-3; here 1e-8).
+    pub body_std: f64,
+    /// … of the four wheelset coordinates and their velocities (eq. (22): variance 1e-6;
+    /// here 1e-10).
+    pub wheelset_std: f64,
     /// The forces' random-walk intensity (N²/s): `Q_F = q·Δt` per sample. [est: 1e13, from
     /// a first probe over 1e11–1e14; eq. (22) has 1e9 per 5 ms sample, 2e11 N²/s]
     pub force_intensity: f64,
     /// The sensors' noise (m/s²): `R = diag(σ²)`.
     pub sensor_std: [f64; 7],
-    /// Prior variance of every state but the forces (eq. (22): 1e-2).
-    pub prior_variance: f64,
+    /// Prior std of every state, the forces' in N (eq. (22): variance 1e-2).
+    pub prior_std: f64,
     /// Sample time (s).
     pub dt: f64,
 }
@@ -227,11 +255,11 @@ impl Tuning {
     /// The study's set-up for these settings and sensors.
     pub fn new(settings: &Settings, sensor_std: [f64; 7]) -> Self {
         Self {
-            body_variance: 1e-8,
-            wheelset_variance: 1e-10,
+            body_std: 1e-4,
+            wheelset_std: 1e-5,
             force_intensity: 1e13,
             sensor_std,
-            prior_variance: 1e-2,
+            prior_std: 0.1,
             dt: 1.0 / settings.rate,
         }
     }
@@ -241,8 +269,8 @@ impl Tuning {
     pub fn noise(&self) -> estimator::Noise {
         let mut q = Vec::with_capacity(24);
         for _ in 0..2 {
-            q.extend([self.body_variance; 6]);
-            q.extend([self.wheelset_variance; 4]);
+            q.extend([self.body_std * self.body_std; 6]);
+            q.extend([self.wheelset_std * self.wheelset_std; 4]);
         }
         q.extend([self.force_intensity * self.dt; 4]);
         let r: Vec<f64> = self.sensor_std.iter().map(|s| s * s).collect();
@@ -253,7 +281,7 @@ impl Tuning {
     pub fn prior(&self, vehicle: &VerticalVehicle) -> estimator::Gaussian {
         let mut mean = [0.0; 24];
         mean[20..].fill(vehicle.static_wheel_load);
-        estimator::Gaussian::diagonal(&mean, &[self.prior_variance; 24])
+        estimator::Gaussian::diagonal(&mean, &[self.prior_std * self.prior_std; 24])
     }
 }
 
