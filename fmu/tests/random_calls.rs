@@ -1,4 +1,7 @@
-//! Randomised fmi2 call sequences through the C ABI, in-process: thousands of
+//! Randomised fmi2 call sequences through the C ABI, in-process, on every
+//! estimator FMU of `kalfmu_fmu::estimators` (the sequences split evenly
+//! between them; the calls pick variables by what they are — an input, an
+//! estimate, a fixed or tunable parameter — from each FMU's table): thousands of
 //! seeded sequences of the 34 functions with random arguments — NULL
 //! pointers, unknown and duplicate value references, NaN and infinities,
 //! wrong types, wrong communication points and step sizes, FMU states that
@@ -16,6 +19,9 @@
 //!   and parameters and inputs read back exactly what was last accepted;
 //! * getters write no further than `nvr`.
 //!
+//! The directed tests after them run on every FMU too (the capture test splits
+//! its runs between them), and check that one FMU refuses another's state.
+//!
 //! Every pointer passed is NULL or valid for the length given (FMI contract).
 //! Messages reach the test through fmi-sys's C logger (a real variadic C
 //! function that formats with `vsnprintf`, so it also checks that the FMU calls
@@ -32,15 +38,16 @@ use std::sync::{LazyLock, Mutex, Once};
 use std::time::{Duration, Instant};
 
 use kalfmu_fmu as fmu;
+use kalfmu_fmu::estimators::Descriptor;
 use kalfmu_fmu::ffi::{
     Fmi2Boolean, Fmi2CallbackFunctions, Fmi2CallbackLogger, Fmi2Component, Fmi2FmuState, Fmi2Integer, Fmi2Status,
     Fmi2String, FMI2_COSIMULATION, FMI2_LAST_SUCCESSFUL_TIME, FMI2_MODEL_EXCHANGE, FMI2_TERMINATED,
 };
-use kalfmu_fmu::variables::{Causality, Kind, Variability, Variable};
+use kalfmu_fmu::variables::{Causality, Kind, Role, Variability, Variable};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const SEQUENCES: u64 = 2000;
+const SEQUENCES: u64 = 1600;
 
 // ----- the messages, per instance name -----
 
@@ -91,29 +98,80 @@ fn callbacks() -> Fmi2CallbackFunctions {
 
 // ----- the interface under test -----
 
-/// The S1 estimator's description, built once for the whole test binary.
-static S1: std::sync::LazyLock<fmu::estimators::Descriptor> = std::sync::LazyLock::new(|| {
-    fmu::estimators::all().into_iter().find(|d| d.model_identifier == "kalfmu_s1_load").expect("the S1 FMU")
-});
+/// Every estimator FMU's description, built once for the whole test binary.
+static DESCRIPTORS: LazyLock<Vec<Descriptor>> = LazyLock::new(fmu::estimators::all);
 
-fn variables() -> &'static [Variable] {
-    &S1.variables
-}
+/// One FMU's variable table. The calls pick variables by what they are (an
+/// input, an estimate, a fixed parameter), never by an FMU's own names.
+#[derive(Debug, Clone, Copy)]
+struct Table(&'static Descriptor);
 
-fn guid() -> CString {
-    CString::new(S1.guid()).expect("a GUID without NUL")
-}
+impl Table {
+    /// Every estimator FMU in `kalfmu_fmu::estimators`.
+    fn all() -> Vec<Table> {
+        DESCRIPTORS.iter().map(Table).collect()
+    }
 
-fn vr(name: &str) -> u32 {
-    variables().iter().position(|v| v.name == name).unwrap_or_else(|| panic!("no variable {name}")) as u32
-}
+    fn id(self) -> &'static str {
+        self.0.model_identifier
+    }
 
-fn is_output(vr: u32) -> bool {
-    variables()[vr as usize].causality == Causality::Output
-}
+    fn variables(self) -> &'static [Variable] {
+        &self.0.variables
+    }
 
-fn is_tunable(vr: u32) -> bool {
-    variables()[vr as usize].variability == Variability::Tunable
+    fn guid(self) -> CString {
+        CString::new(self.0.guid()).expect("a GUID without NUL")
+    }
+
+    fn vr(self, name: &str) -> u32 {
+        self.variables().iter().position(|v| v.name == name).unwrap_or_else(|| panic!("no variable {name}")) as u32
+    }
+
+    fn is_output(self, vr: u32) -> bool {
+        self.variables()[vr as usize].causality == Causality::Output
+    }
+
+    fn is_tunable(self, vr: u32) -> bool {
+        self.variables()[vr as usize].variability == Variability::Tunable
+    }
+
+    /// The value references of the variables `pick` selects, in table order.
+    fn select(self, pick: impl Fn(&Variable) -> bool) -> Vec<u32> {
+        (0..self.variables().len() as u32).filter(|&r| pick(&self.variables()[r as usize])).collect()
+    }
+
+    /// The measurement inputs, in measurement-row order.
+    fn inputs(self) -> Vec<u32> {
+        (0..self.0.measurement_dim()).map(|row| self.select(|v| v.role == Role::Measurement(row))[0]).collect()
+    }
+
+    /// The outputs of one kind (`Kind::Real`: the estimates, their deviations and the NIS).
+    fn outputs(self, kind: Kind) -> Vec<u32> {
+        self.select(|v| v.causality == Causality::Output && v.kind == kind)
+    }
+
+    /// The first estimate (S1: F; S2: F_N1).
+    fn estimate(self) -> u32 {
+        self.select(|v| matches!(v.role, Role::Estimate(_)))[0]
+    }
+
+    /// The first fixed Real parameter (S1: m1; S2: car_body_mass).
+    fn fixed_real(self) -> u32 {
+        self.select(|v| {
+            v.causality == Causality::Parameter && v.variability == Variability::Fixed && v.kind == Kind::Real
+        })[0]
+    }
+
+    /// The tunable parameters, in table order (the process noise first, the sensors' last).
+    fn tunables(self) -> Vec<u32> {
+        self.select(|v| v.variability == Variability::Tunable)
+    }
+
+    /// The default sample time.
+    fn sample_time(self) -> f64 {
+        self.0.default_experiment.step
+    }
 }
 
 fn real_kind(k: Kind) -> bool {
@@ -163,6 +221,7 @@ enum St {
 
 #[derive(Debug, Clone)]
 struct Model {
+    t: Table,
     st: St,
     time: f64,
     start: f64,
@@ -174,19 +233,20 @@ struct Model {
 }
 
 impl Model {
-    fn new() -> Self {
+    fn new(t: Table) -> Self {
         Self {
+            t,
             st: St::Instantiated,
             time: 0.0,
             start: 0.0,
             stop: None,
-            values: variables().iter().map(|v| v.start.unwrap_or(f64::NAN)).collect(),
+            values: t.variables().iter().map(|v| v.start.unwrap_or(f64::NAN)).collect(),
             suspect: false,
         }
     }
 
     fn sample_time(&self) -> f64 {
-        self.values[vr("sample_time") as usize]
+        self.values[self.t.vr("sample_time") as usize]
     }
 
     /// The status of a setter for these entries (in order; duplicates: last wins).
@@ -198,7 +258,7 @@ impl Model {
             return Expect::Error;
         }
         for &(r, x) in entries {
-            let Some(v) = variables().get(r as usize) else { return Expect::Error };
+            let Some(v) = self.t.variables().get(r as usize) else { return Expect::Error };
             if v.causality == Causality::Output
                 || (v.variability == Variability::Fixed && self.st == St::StepComplete)
                 || !accepts(v.kind)
@@ -218,8 +278,8 @@ impl Model {
         if self.st == St::StepComplete {
             let mut values = self.values.clone();
             entries.iter().for_each(|&(r, x)| values[r as usize] = x);
-            if entries.iter().any(|&(r, _)| is_tunable(r))
-                && (0..values.len()).any(|i| is_tunable(i as u32) && !values[i].is_finite())
+            if entries.iter().any(|&(r, _)| self.t.is_tunable(r))
+                && (0..values.len()).any(|i| self.t.is_tunable(i as u32) && !values[i].is_finite())
             {
                 return Expect::Error;
             }
@@ -241,7 +301,7 @@ impl Model {
         if null {
             return Expect::Error;
         }
-        let ok = vrs.iter().all(|&r| variables().get(r as usize).is_some_and(|v| accepts(v.kind)));
+        let ok = vrs.iter().all(|&r| self.t.variables().get(r as usize).is_some_and(|v| accepts(v.kind)));
         if ok {
             Expect::Ok
         } else {
@@ -297,13 +357,15 @@ struct Sequence {
     /// `(function, outcome)` → count, for the coverage summary.
     stats: HashMap<(String, String), u64>,
     callbacks: Fmi2CallbackFunctions,
+    /// The FMU under test.
+    t: Table,
     guid: CString,
     /// Serialised states (any instance of this FMU may restore them).
     blobs: Vec<(Vec<u8>, Model)>,
 }
 
 impl Sequence {
-    fn new(seed: u64) -> Self {
+    fn new(seed: u64, t: Table) -> Self {
         Self {
             rng: ChaCha8Rng::seed_from_u64(seed),
             seed,
@@ -311,7 +373,8 @@ impl Sequence {
             trace: Vec::new(),
             stats: HashMap::new(),
             callbacks: callbacks(),
-            guid: guid(),
+            t,
+            guid: t.guid(),
             blobs: Vec::new(),
         }
     }
@@ -404,7 +467,7 @@ impl Sequence {
         if c.is_null() || messages.iter().any(|(level, _)| *level == log::Level::Error) {
             self.fail("a valid fmi2Instantiate failed");
         }
-        Instance { c, name, key, m: Model::new(), states: Vec::new() }
+        Instance { c, name, key, m: Model::new(self.t), states: Vec::new() }
     }
 
     /// A call of fmi2Instantiate that must return NULL (and say why, if it can).
@@ -607,7 +670,7 @@ impl Sequence {
         // SAFETY: a live instance.
         let status = unsafe { fmu::fmi2Reset(inst.c) };
         self.check(&inst.key, "fmi2Reset".into(), status, Expect::Ok);
-        inst.m = Model::new();
+        inst.m = Model::new(self.t);
     }
 
     fn do_step(&mut self, inst: &mut Instance) {
@@ -622,7 +685,7 @@ impl Sequence {
         let h = match self.rng.random_range(0..100) {
             0..=59 => self.rng.random_range(1..=4) as f64 * ts,
             60..=69 => 0.0037,
-            70..=71 => 1.0,
+            70..=71 => 50.0 * ts, // many samples in one step
             72..=74 => f64::MIN_POSITIVE,
             _ => self.pick(&[0.0, -ts, f64::NAN, f64::INFINITY, f64::NEG_INFINITY]),
         };
@@ -641,18 +704,18 @@ impl Sequence {
 
     /// A value reference that is not a variable.
     fn bad_vr(&mut self) -> u32 {
-        let n = variables().len() as u32;
+        let n = self.t.variables().len() as u32;
         self.pick(&[n, n + 1, 1000, u32::MAX])
     }
 
     /// A Real entry for fmi2SetReal and whether it is "suspect" (accepted, but
     /// it may not build a filter).
     fn real_entry(&mut self) -> (u32, f64, bool) {
-        let vars = variables();
+        let vars = self.t.variables();
         let reals: Vec<u32> = (0..vars.len() as u32).filter(|&r| vars[r as usize].kind == Kind::Real).collect();
         let class = self.rng.random_range(0..100);
         if class < 35 {
-            let r = self.pick(&[vr("z1_ddot"), vr("z2_ddot")]);
+            let r = self.pick(&self.t.inputs());
             let x = self.pick(&[
                 0.0,
                 0.3,
@@ -670,7 +733,7 @@ impl Sequence {
             return (r, x, false);
         }
         if class < 55 {
-            let tunables: Vec<u32> = reals.iter().copied().filter(|&r| is_tunable(r)).collect();
+            let tunables: Vec<u32> = reals.iter().copied().filter(|&r| self.t.is_tunable(r)).collect();
             let r = self.pick(&tunables);
             let d = vars[r as usize].start.expect("a start value");
             let x = self.pick(&[d, 2.0 * d, 0.0, 0.5, -1.0, f64::NAN, f64::INFINITY]);
@@ -680,13 +743,13 @@ impl Sequence {
             let fixed: Vec<u32> = reals
                 .iter()
                 .copied()
-                .filter(|&r| vars[r as usize].causality == Causality::Parameter && !is_tunable(r))
+                .filter(|&r| vars[r as usize].causality == Causality::Parameter && !self.t.is_tunable(r))
                 .collect();
             let r = self.pick(&fixed);
             let d = vars[r as usize].start.expect("a start value");
             return match vars[r as usize].name {
                 // Only sample times that keep steps short are accepted; the rest is out of bounds.
-                "sample_time" => (r, self.pick(&[0.005, 0.01, 0.0025, 0.0, -1.0, f64::NAN, 1e-12]), false),
+                "sample_time" => (r, self.pick(&[d, 2.0 * d, 0.5 * d, 0.0, -1.0, f64::NAN, 1e-12]), false),
                 _ => {
                     let good = if d == 0.0 { 0.25 } else { 1.5 * d };
                     let x = self.pick(&[d, good, good, 0.0, -1.0, f64::NAN, f64::INFINITY, 1e300]);
@@ -696,8 +759,9 @@ impl Sequence {
         }
         if class < 90 {
             // An output, or a variable of another type.
-            let others: Vec<u32> =
-                (0..vars.len() as u32).filter(|&r| is_output(r) || vars[r as usize].kind != Kind::Real).collect();
+            let others: Vec<u32> = (0..vars.len() as u32)
+                .filter(|&r| self.t.is_output(r) || vars[r as usize].kind != Kind::Real)
+                .collect();
             return (self.pick(&others), 1.0, false);
         }
         (self.bad_vr(), 1.0, false)
@@ -737,14 +801,17 @@ impl Sequence {
         let mut suspect = false;
         for _ in 0..n {
             let entry = match self.rng.random_range(0..10) {
-                0..=3 => (vr("rk4_substeps"), self.pick(&[1, 2, 3, 0, -1, 1001, i32::MAX, i32::MIN])),
-                4..=6 => (vr("filter"), self.pick(&[1, 2, 3, 4, 5, 0, 6, -2])),
-                7 => (vr("skipped_measurements"), 1),
-                8 => (self.pick(&[vr("F"), vr("m1"), vr("z1_ddot"), vr("filter_healthy")]), 1),
+                0..=3 => (self.t.vr("rk4_substeps"), self.pick(&[1, 2, 3, 0, -1, 1001, i32::MAX, i32::MIN])),
+                4..=6 => (self.t.vr("filter"), self.pick(&[1, 2, 3, 4, 5, 0, 6, -2])),
+                7 => (self.t.vr("skipped_measurements"), 1),
+                8 => {
+                    let t = self.t;
+                    (self.pick(&[t.estimate(), t.fixed_real(), t.inputs()[0], t.vr("filter_healthy")]), 1)
+                }
                 _ => (self.bad_vr(), 1),
             };
             // rk4_substeps up to 3 and every filter kind build a filter from good parameters.
-            suspect |= entry.0 == vr("rk4_substeps") && entry.1 > 3;
+            suspect |= entry.0 == self.t.vr("rk4_substeps") && entry.1 > 3;
             entries.push(entry);
         }
         self.duplicate(&mut entries);
@@ -765,8 +832,11 @@ impl Sequence {
         let n = self.entry_count();
         let vrs: Vec<u32> = (0..n)
             .map(|_| match self.rng.random_range(0..10) {
-                0..=4 => vr("filter_healthy"),
-                5..=7 => self.pick(&[vr("z1_ddot"), vr("q_z_std"), vr("filter")]),
+                0..=4 => self.t.vr("filter_healthy"),
+                5..=7 => {
+                    let t = self.t;
+                    self.pick(&[t.inputs()[0], t.tunables()[0], t.vr("filter")])
+                }
                 _ => self.bad_vr(),
             })
             .collect();
@@ -781,7 +851,7 @@ impl Sequence {
 
     fn set_string(&mut self, inst: &mut Instance) {
         let n = self.entry_count();
-        let vars = variables().len() as u32;
+        let vars = self.t.variables().len() as u32;
         let vrs: Vec<u32> = (0..n).map(|_| self.rng.random_range(0..vars + 2)).collect();
         let strings: Vec<Fmi2String> = (0..n).map(|_| self.pick(&[c"".as_ptr(), c"SRCKF".as_ptr()])).collect();
         let null = self.chance(0.1);
@@ -794,7 +864,7 @@ impl Sequence {
 
     fn get_vrs(&mut self, mostly: &[u32]) -> Vec<u32> {
         let n = self.pick(&[0, 1, 2, 4, 8]);
-        let vars = variables().len() as u32;
+        let vars = self.t.variables().len() as u32;
         let mut vrs: Vec<u32> = (0..n)
             .map(|_| match self.rng.random_range(0..20) {
                 0..=13 => self.pick(mostly),
@@ -808,7 +878,7 @@ impl Sequence {
 
     fn get_real(&mut self, inst: &mut Instance) {
         let reals: Vec<u32> =
-            (0..variables().len() as u32).filter(|&r| real_kind(variables()[r as usize].kind)).collect();
+            (0..self.t.variables().len() as u32).filter(|&r| real_kind(self.t.variables()[r as usize].kind)).collect();
         let mut vrs = self.get_vrs(&reals);
         if self.chance(0.1) {
             vrs = reals;
@@ -826,7 +896,7 @@ impl Sequence {
         }
         if status == Fmi2Status::Ok {
             for (r, x) in vrs.iter().zip(&out) {
-                if !is_output(*r) && !same(*x, inst.m.values[*r as usize]) {
+                if !self.t.is_output(*r) && !same(*x, inst.m.values[*r as usize]) {
                     let want = inst.m.values[*r as usize];
                     self.fail(&format!("vr {r} reads {x:e}, last accepted {want:e}"));
                 }
@@ -835,7 +905,7 @@ impl Sequence {
     }
 
     fn get_integer(&mut self, inst: &mut Instance) {
-        let vrs = self.get_vrs(&[vr("rk4_substeps"), vr("filter"), vr("skipped_measurements")]);
+        let vrs = self.get_vrs(&[self.t.vr("rk4_substeps"), self.t.vr("filter"), self.t.vr("skipped_measurements")]);
         let null = self.chance(0.05);
         let n = vrs.len();
         let mut out = vec![-777; n + 1];
@@ -849,7 +919,7 @@ impl Sequence {
         if status == Fmi2Status::Ok {
             for (r, x) in vrs.iter().zip(&out) {
                 let want = inst.m.values[*r as usize];
-                if (!is_output(*r) && f64::from(*x) != want) || (is_output(*r) && *x < 0) {
+                if (!self.t.is_output(*r) && f64::from(*x) != want) || (self.t.is_output(*r) && *x < 0) {
                     self.fail(&format!("vr {r} reads {x}, last accepted {want}"));
                 }
             }
@@ -857,7 +927,7 @@ impl Sequence {
     }
 
     fn get_boolean(&mut self, inst: &mut Instance) {
-        let vrs = self.get_vrs(&[vr("filter_healthy")]);
+        let vrs = self.get_vrs(&[self.t.vr("filter_healthy")]);
         let null = self.chance(0.05);
         let n = vrs.len();
         let mut out = vec![-777; n + 1];
@@ -1149,7 +1219,7 @@ impl Sequence {
     }
 
     fn derivatives(&mut self, inst: &mut Instance) {
-        let vrs = [vr("F"), vr("z1_ddot")];
+        let vrs = [self.t.estimate(), self.t.inputs()[0]];
         let order = [1, 1];
         let mut values = [0.0; 2];
         // SAFETY: NULL or arrays of two elements.
@@ -1225,67 +1295,81 @@ fn watchdog(progress: &'static AtomicU64, done: &'static AtomicBool) {
     });
 }
 
+/// The sequences, split evenly between the FMUs: sequence `k` drives FMU `k mod n`.
 #[test]
 fn random_call_sequences() {
     static PROGRESS: AtomicU64 = AtomicU64::new(0);
     static DONE: AtomicBool = AtomicBool::new(false);
     watchdog(&PROGRESS, &DONE);
     let base: u64 = std::env::var("KALFMU_RANDOM_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0x6b61_6c66);
+    let tables = Table::all();
     let started = Instant::now();
     let mut slowest = (Duration::ZERO, 0);
-    let mut stats: HashMap<(String, String), u64> = HashMap::new();
+    // Per FMU: `(function, outcome)` → count.
+    let mut stats: Vec<HashMap<(String, String), u64>> = vec![HashMap::new(); tables.len()];
     for k in 0..SEQUENCES {
         let seed = base.wrapping_add(k);
+        let which = (k % tables.len() as u64) as usize;
         PROGRESS.store(seed, Ordering::Relaxed);
         let t = Instant::now();
-        let mut sequence = Sequence::new(seed);
+        let mut sequence = Sequence::new(seed, tables[which]);
         sequence.run();
         for (key, n) in sequence.stats {
-            *stats.entry(key).or_default() += n;
+            *stats[which].entry(key).or_default() += n;
         }
         slowest = slowest.max((t.elapsed(), seed));
     }
     DONE.store(true, Ordering::Relaxed);
-    let mut summary: Vec<_> = stats.iter().collect();
-    summary.sort();
-    let calls: u64 = stats.values().sum();
+    let calls: u64 = stats.iter().flat_map(HashMap::values).sum();
     println!(
         "{SEQUENCES} sequences, {calls} checked calls in {:.2?}; slowest sequence {:.2?} (seed {})",
         started.elapsed(),
         slowest.0,
         slowest.1
     );
-    for ((function, outcome), n) in summary {
-        println!("  {function:32} {outcome:8} {n}");
-    }
-    // The sequences reach every corner they are meant to (guards against weights drifting).
-    let count = |f: &str, o: &str| stats.get(&(f.to_owned(), o.to_owned())).copied().unwrap_or(0);
-    for (f, o, at_least) in [
-        ("fmi2DoStep", "Ok", 5000),
-        ("fmi2DoStep", "Discard", 10),
-        ("fmi2DoStep", "Error", 1000),
-        ("fmi2DoStep", "Illegal", 1000),
-        ("fmi2ExitInitializationMode", "Ok", 1000),
-        ("fmi2ExitInitializationMode", "Error", 10),
-        ("fmi2SetReal", "Ok", 5000),
-        ("fmi2SetReal", "Error", 2000),
-        ("fmi2SetFMUstate", "Ok", 500),
-        ("fmi2DeSerializeFMUstate", "Ok", 200),
-        ("fmi2DeSerializeFMUstate", "Error", 500),
-        ("fmi2SerializeFMUstate", "Ok", 200),
-        ("fmi2SetDebugLogging", "Error", 100),
-    ] {
-        assert!(count(f, o) >= at_least, "only {} calls of {f} with outcome {o}", count(f, o));
+    for (table, stats) in tables.iter().zip(&stats) {
+        println!("{}:", table.id());
+        let mut summary: Vec<_> = stats.iter().collect();
+        summary.sort();
+        for ((function, outcome), n) in summary {
+            println!("  {function:32} {outcome:8} {n}");
+        }
+        // The sequences reach every corner they are meant to, on every FMU (guards
+        // against weights drifting): at least this many per 1000 sequences.
+        let count = |f: &str, o: &str| stats.get(&(f.to_owned(), o.to_owned())).copied().unwrap_or(0);
+        let per_thousand = (SEQUENCES / tables.len() as u64) as f64 / 1000.0;
+        for (f, o, at_least) in [
+            ("fmi2DoStep", "Ok", 2500),
+            ("fmi2DoStep", "Discard", 5),
+            ("fmi2DoStep", "Error", 500),
+            ("fmi2DoStep", "Illegal", 500),
+            ("fmi2ExitInitializationMode", "Ok", 500),
+            ("fmi2ExitInitializationMode", "Error", 5),
+            ("fmi2SetReal", "Ok", 2500),
+            ("fmi2SetReal", "Error", 1000),
+            ("fmi2SetFMUstate", "Ok", 250),
+            ("fmi2DeSerializeFMUstate", "Ok", 100),
+            ("fmi2DeSerializeFMUstate", "Error", 250),
+            ("fmi2SerializeFMUstate", "Ok", 100),
+            ("fmi2SetDebugLogging", "Error", 50),
+        ] {
+            let n = count(f, o);
+            assert!(
+                n as f64 >= at_least as f64 * per_thousand,
+                "{}: only {n} calls of {f} with outcome {o}",
+                table.id()
+            );
+        }
     }
 }
 
 // ----- directed tests -----
 
-/// A valid instance through the C logger, initialised with defaults.
-fn running_instance(name: &CString, callbacks: &Fmi2CallbackFunctions) -> Fmi2Component {
+/// A valid instance of FMU `t` through the C logger, initialised with defaults.
+fn running_instance(t: Table, name: &CString, callbacks: &Fmi2CallbackFunctions) -> Fmi2Component {
     // SAFETY: valid strings and callbacks.
     unsafe {
-        let c = fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, guid().as_ptr(), ptr::null(), callbacks, 0, 0);
+        let c = fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, t.guid().as_ptr(), ptr::null(), callbacks, 0, 0);
         assert!(!c.is_null());
         assert_eq!(fmu::fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), Fmi2Status::Ok);
         assert_eq!(fmu::fmi2EnterInitializationMode(c), Fmi2Status::Ok);
@@ -1297,7 +1381,8 @@ fn running_instance(name: &CString, callbacks: &Fmi2CallbackFunctions) -> Fmi2Co
 /// One call of a legal run, for [`capturing_the_fmu_state_changes_no_output`].
 #[derive(Debug, Clone)]
 enum Call {
-    SetInputs([f64; 2]),
+    /// Every input, in row order.
+    SetInputs(Vec<f64>),
     SetTunable(u32, f64),
     Read,
     DoStep(f64),
@@ -1309,21 +1394,26 @@ enum Call {
     },
 }
 
-/// A random legal run of one instance of filter kind `kind` (1 … 5): inputs
-/// (some NaN), reads, steps of 1, 5, 7.5 and 10 ms at the 5 ms sample time,
-/// tunable changes, and state captures between any two of them.
-fn legal_run(seed: u64) -> Vec<Call> {
+/// A random legal run of one instance of FMU `t`: inputs (the first one
+/// sometimes NaN), reads, steps of 0.2, 1, 1.5 and 2 default sample times (at
+/// S1's 5 ms: 1, 5, 7.5 and 10 ms), changes of a tunable (the last: a sensor's
+/// noise), and state captures between any two of them.
+fn legal_run(t: Table, seed: u64) -> Vec<Call> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (m, ts, sensor) = (t.inputs().len(), t.sample_time(), *t.tunables().last().expect("a tunable"));
     let mut calls = Vec::new();
     for _ in 0..rng.random_range(40..160) {
         let call = match rng.random_range(0..20) {
             0..=5 => {
-                let z = [rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0)];
-                Call::SetInputs(if rng.random_bool(0.05) { [f64::NAN, z[1]] } else { z })
+                let mut z: Vec<f64> = (0..m).map(|_| rng.random_range(-3.0..3.0)).collect();
+                if rng.random_bool(0.05) {
+                    z[0] = f64::NAN;
+                }
+                Call::SetInputs(z)
             }
             6..=9 => Call::Read,
-            10..=15 => Call::DoStep([0.001, 0.005, 0.005, 0.0075, 0.010][rng.random_range(0..5)]),
-            16 => Call::SetTunable(vr("r_z2_ddot_std"), rng.random_range(0.005..0.05)),
+            10..=15 => Call::DoStep([0.2, 1.0, 1.0, 1.5, 2.0][rng.random_range(0..5)] * ts),
+            16 => Call::SetTunable(sensor, rng.random_range(0.005..0.05)),
             _ => Call::Capture { serialize: rng.random_bool(0.5), free: rng.random_bool(0.7) },
         };
         calls.push(call);
@@ -1331,39 +1421,37 @@ fn legal_run(seed: u64) -> Vec<Call> {
     calls
 }
 
-/// Runs `calls` on a new instance of filter `kind`, skipping the captures
-/// unless `capture`; returns every output read, as bits.
-fn outputs_of(calls: &[Call], kind: i32, capture: bool, callbacks: &Fmi2CallbackFunctions) -> Vec<u64> {
+/// Runs `calls` on a new instance of FMU `t` with filter `kind`, skipping the
+/// captures unless `capture`; returns every output read, as bits.
+fn outputs_of(t: Table, calls: &[Call], kind: i32, capture: bool, callbacks: &Fmi2CallbackFunctions) -> Vec<u64> {
     let name = CString::new(format!("capture-{kind}-{capture}")).expect("no NUL");
-    let outputs: Vec<u32> =
-        (0..variables().len() as u32).filter(|&r| is_output(r) && real_kind(variables()[r as usize].kind)).collect();
+    let (reals, counts, flags) = (t.outputs(Kind::Real), t.outputs(Kind::Integer), t.outputs(Kind::Boolean));
+    let inputs = t.inputs();
     let (mut seen, mut held) = (Vec::new(), Vec::new());
     let mut time = 0.0;
     // SAFETY: valid strings, callbacks, pointers and lengths throughout; the
     // states are this instance's and freed once.
     unsafe {
-        let c = fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, guid().as_ptr(), ptr::null(), callbacks, 0, 0);
+        let c = fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, t.guid().as_ptr(), ptr::null(), callbacks, 0, 0);
         assert!(!c.is_null());
         assert_eq!(fmu::fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), Fmi2Status::Ok);
         assert_eq!(fmu::fmi2EnterInitializationMode(c), Fmi2Status::Ok);
-        assert_eq!(fmu::fmi2SetInteger(c, &vr("filter"), 1, &kind), Fmi2Status::Ok);
+        assert_eq!(fmu::fmi2SetInteger(c, &t.vr("filter"), 1, &kind), Fmi2Status::Ok);
         assert_eq!(fmu::fmi2ExitInitializationMode(c), Fmi2Status::Ok);
         for call in calls {
             match *call {
-                Call::SetInputs(z) => {
-                    let vrs = [vr("z1_ddot"), vr("z2_ddot")];
-                    assert_eq!(fmu::fmi2SetReal(c, vrs.as_ptr(), 2, z.as_ptr()), Fmi2Status::Ok);
+                Call::SetInputs(ref z) => {
+                    assert_eq!(fmu::fmi2SetReal(c, inputs.as_ptr(), inputs.len(), z.as_ptr()), Fmi2Status::Ok);
                 }
                 Call::SetTunable(r, x) => assert_eq!(fmu::fmi2SetReal(c, &r, 1, &x), Fmi2Status::Ok),
                 Call::Read => {
-                    let mut out = vec![0.0; outputs.len()];
-                    assert_eq!(fmu::fmi2GetReal(c, outputs.as_ptr(), outputs.len(), out.as_mut_ptr()), Fmi2Status::Ok);
-                    let counts = [vr("skipped_measurements"), vr("rejected_measurements")];
-                    let mut count = [0; 2];
-                    assert_eq!(fmu::fmi2GetInteger(c, counts.as_ptr(), 2, count.as_mut_ptr()), Fmi2Status::Ok);
-                    let flags = [vr("filter_healthy"), vr("z1_ddot_fault"), vr("z2_ddot_fault")];
-                    let mut flag = [0; 3];
-                    assert_eq!(fmu::fmi2GetBoolean(c, flags.as_ptr(), 3, flag.as_mut_ptr()), Fmi2Status::Ok);
+                    let mut out = vec![0.0; reals.len()];
+                    assert_eq!(fmu::fmi2GetReal(c, reals.as_ptr(), reals.len(), out.as_mut_ptr()), Fmi2Status::Ok);
+                    let mut count = vec![0; counts.len()];
+                    let status = fmu::fmi2GetInteger(c, counts.as_ptr(), counts.len(), count.as_mut_ptr());
+                    assert_eq!(status, Fmi2Status::Ok);
+                    let mut flag = vec![0; flags.len()];
+                    assert_eq!(fmu::fmi2GetBoolean(c, flags.as_ptr(), flags.len(), flag.as_mut_ptr()), Fmi2Status::Ok);
                     let words = count.iter().chain(&flag).map(|&v| v as u64);
                     seen.extend(out.iter().map(|x| x.to_bits()).chain(words));
                 }
@@ -1405,19 +1493,23 @@ fn outputs_of(calls: &[Call], kind: i32, capture: bool, callbacks: &Fmi2Callback
 /// Capturing or serialising the FMU state changes nothing: for every filter
 /// kind, a random legal run gives bit for bit the outputs of the same run
 /// with the fmi2GetFMUstate / fmi2SerializedFMUstateSize /
-/// fmi2SerializeFMUstate / fmi2FreeFMUstate calls left out.
+/// fmi2SerializeFMUstate / fmi2FreeFMUstate calls left out. The 40 runs are
+/// split evenly between the FMUs (run `k` on FMU `k mod n`).
 #[test]
 fn capturing_the_fmu_state_changes_no_output() {
     let callbacks = callbacks();
-    for seed in 0..60 {
-        let calls = legal_run(seed);
+    let tables = Table::all();
+    for seed in 0..40 {
+        let t = tables[seed as usize % tables.len()];
+        let calls = legal_run(t, seed);
         for kind in 1..=5 {
-            let with = outputs_of(&calls, kind, true, &callbacks);
-            let without = outputs_of(&calls, kind, false, &callbacks);
+            let with = outputs_of(t, &calls, kind, true, &callbacks);
+            let without = outputs_of(t, &calls, kind, false, &callbacks);
             assert!(!with.is_empty() || !calls.iter().any(|c| matches!(c, Call::Read)));
             if let Some(i) = with.iter().zip(&without).position(|(a, b)| a != b) {
                 panic!(
-                    "seed {seed}, filter {kind}: output {i} is {:e} with the captures, {:e} without",
+                    "{}, seed {seed}, filter {kind}: output {i} is {:e} with the captures, {:e} without",
+                    t.id(),
                     f64::from_bits(with[i]),
                     f64::from_bits(without[i])
                 );
@@ -1427,67 +1519,104 @@ fn capturing_the_fmu_state_changes_no_output() {
     }
 }
 
-/// Refused calls in StepComplete change nothing: the instance steps on exactly
-/// like an undisturbed twin.
+/// Refused calls in StepComplete change nothing: on every FMU, the instance
+/// steps on exactly like an undisturbed twin.
 #[test]
 fn rejected_calls_leave_the_instance_usable() {
     let callbacks = callbacks();
-    let (name_a, name_b) = (c"rejected-a".to_owned(), c"rejected-b".to_owned());
-    let (a, b) = (running_instance(&name_a, &callbacks), running_instance(&name_b, &callbacks));
-    let inputs = [vr("z1_ddot"), vr("z2_ddot")];
-    let outputs: Vec<u32> =
-        (0..variables().len() as u32).filter(|&r| is_output(r) && variables()[r as usize].kind == Kind::Real).collect();
-    let dt = 0.005;
-    // SAFETY: live instances and valid arrays of the lengths given.
-    unsafe {
-        for k in 0..60 {
-            let t = k as f64 * dt;
-            let z = [(3.0 * t).sin(), 0.5 * (7.0 * t).cos()];
-            for c in [a, b] {
-                assert_eq!(fmu::fmi2SetReal(c, inputs.as_ptr(), 2, z.as_ptr()), Fmi2Status::Ok);
-            }
-            if k % 3 == 0 {
-                // Refused: an output, a fixed parameter, NaN / inf / negative into a tunable,
-                // an Integer through SetReal, an unknown reference, wrong step arguments.
-                let refused: [(u32, f64); 6] = [
-                    (vr("F"), 1.0),
-                    (vr("m1"), 5.0),
-                    (vr("q_z_std"), f64::NAN),
-                    (vr("load_noise_intensity"), f64::INFINITY),
-                    (vr("rk4_substeps"), 2.0),
-                    (999, 0.0),
-                ];
-                for (r, x) in refused {
-                    // A good input first: all or nothing, so it is not applied either.
-                    let (vrs, xs) = ([inputs[0], r], [1e3, x]);
-                    assert_eq!(fmu::fmi2SetReal(a, vrs.as_ptr(), 2, xs.as_ptr()), Fmi2Status::Error, "vr {r}");
+    for table in Table::all() {
+        let (name_a, name_b) = (c"rejected-a".to_owned(), c"rejected-b".to_owned());
+        let (a, b) = (running_instance(table, &name_a, &callbacks), running_instance(table, &name_b, &callbacks));
+        let inputs = table.inputs();
+        let outputs = table.outputs(Kind::Real);
+        let tunables = table.tunables();
+        let dt = table.sample_time();
+        // SAFETY: live instances and valid arrays of the lengths given.
+        unsafe {
+            for k in 0..60 {
+                let t = k as f64 * dt;
+                let z: Vec<f64> = (0..inputs.len()).map(|i| 0.5 * ((3.0 + 4.0 * i as f64) * t).sin()).collect();
+                for c in [a, b] {
+                    assert_eq!(fmu::fmi2SetReal(c, inputs.as_ptr(), inputs.len(), z.as_ptr()), Fmi2Status::Ok);
                 }
-                assert_eq!(fmu::fmi2SetInteger(a, [vr("filter")].as_ptr(), 1, [4].as_ptr()), Fmi2Status::Error);
-                assert_eq!(fmu::fmi2DoStep(a, t + 1.0, dt, 1), Fmi2Status::Error);
-                assert_eq!(fmu::fmi2DoStep(a, t, 0.0, 1), Fmi2Status::Error);
-                assert_eq!(fmu::fmi2DoStep(a, t, -dt, 1), Fmi2Status::Error);
-                assert_eq!(fmu::fmi2DoStep(a, f64::NAN, dt, 1), Fmi2Status::Error);
-                assert_eq!(fmu::fmi2EnterInitializationMode(a), Fmi2Status::Error);
-                assert_eq!(
-                    fmu::fmi2DeSerializeFMUstate(a, [1u8; 64].as_ptr().cast(), 64, &mut ptr::null_mut()),
-                    Fmi2Status::Error
-                );
-                let messages = take_messages("rejected-a");
-                assert!(messages.iter().filter(|(l, _)| *l == log::Level::Error).count() >= 12, "{messages:?}");
-                assert!(messages.iter().any(|(_, m)| m.contains("illegal call sequence")), "{messages:?}");
+                if k % 3 == 0 {
+                    // Refused: an output, a fixed parameter, NaN / inf into a tunable,
+                    // an Integer through SetReal, an unknown reference, wrong step arguments.
+                    let refused: [(u32, f64); 6] = [
+                        (table.estimate(), 1.0),
+                        (table.fixed_real(), 5.0),
+                        (tunables[0], f64::NAN),
+                        (tunables[tunables.len() - 1], f64::INFINITY),
+                        (table.vr("rk4_substeps"), 2.0),
+                        (999, 0.0),
+                    ];
+                    for (r, x) in refused {
+                        // A good input first: all or nothing, so it is not applied either.
+                        let (vrs, xs) = ([inputs[0], r], [1e3, x]);
+                        assert_eq!(fmu::fmi2SetReal(a, vrs.as_ptr(), 2, xs.as_ptr()), Fmi2Status::Error, "vr {r}");
+                    }
+                    let filter = [table.vr("filter")];
+                    assert_eq!(fmu::fmi2SetInteger(a, filter.as_ptr(), 1, [4].as_ptr()), Fmi2Status::Error);
+                    assert_eq!(fmu::fmi2DoStep(a, t + 1.0, dt, 1), Fmi2Status::Error);
+                    assert_eq!(fmu::fmi2DoStep(a, t, 0.0, 1), Fmi2Status::Error);
+                    assert_eq!(fmu::fmi2DoStep(a, t, -dt, 1), Fmi2Status::Error);
+                    assert_eq!(fmu::fmi2DoStep(a, f64::NAN, dt, 1), Fmi2Status::Error);
+                    assert_eq!(fmu::fmi2EnterInitializationMode(a), Fmi2Status::Error);
+                    assert_eq!(
+                        fmu::fmi2DeSerializeFMUstate(a, [1u8; 64].as_ptr().cast(), 64, &mut ptr::null_mut()),
+                        Fmi2Status::Error
+                    );
+                    let messages = take_messages("rejected-a");
+                    assert!(messages.iter().filter(|(l, _)| *l == log::Level::Error).count() >= 12, "{messages:?}");
+                    assert!(messages.iter().any(|(_, m)| m.contains("illegal call sequence")), "{messages:?}");
+                }
+                let (mut ya, mut yb) = (vec![0.0; outputs.len()], vec![0.0; outputs.len()]);
+                for (c, y) in [(a, &mut ya), (b, &mut yb)] {
+                    assert_eq!(fmu::fmi2DoStep(c, t, dt, 1), Fmi2Status::Ok, "{} sample {k}", table.id());
+                    assert_eq!(fmu::fmi2GetReal(c, outputs.as_ptr(), outputs.len(), y.as_mut_ptr()), Fmi2Status::Ok);
+                }
+                let bits = |y: &[f64]| y.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&ya), bits(&yb), "{} sample {k}: the refused calls changed the estimate", table.id());
             }
-            let (mut ya, mut yb) = (vec![0.0; outputs.len()], vec![0.0; outputs.len()]);
-            for (c, y) in [(a, &mut ya), (b, &mut yb)] {
-                assert_eq!(fmu::fmi2DoStep(c, t, dt, 1), Fmi2Status::Ok, "sample {k}");
-                assert_eq!(fmu::fmi2GetReal(c, outputs.as_ptr(), outputs.len(), y.as_mut_ptr()), Fmi2Status::Ok);
-            }
-            let bits = |y: &[f64]| y.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&ya), bits(&yb), "sample {k}: the refused calls changed the estimate");
+            fmu::fmi2FreeInstance(a);
+            fmu::fmi2FreeInstance(b);
         }
-        fmu::fmi2FreeInstance(a);
-        fmu::fmi2FreeInstance(b);
+        take_messages("rejected-b");
     }
-    take_messages("rejected-b");
+}
+
+/// The FMUs share one library but not their states: a state serialised by an
+/// instance of one FMU is refused, saying so, by an instance of every other.
+#[test]
+fn a_state_of_another_fmu_is_refused() {
+    let callbacks = callbacks();
+    let name = c"foreign".to_owned();
+    let tables = Table::all();
+    for (from, to) in tables.iter().flat_map(|a| tables.iter().map(move |b| (*a, *b))) {
+        if from.id() == to.id() {
+            continue;
+        }
+        // SAFETY: live instances, valid pointers and lengths; states freed once.
+        unsafe {
+            let (a, b) = (running_instance(from, &name, &callbacks), running_instance(to, &name, &callbacks));
+            let mut s: Fmi2FmuState = ptr::null_mut();
+            assert_eq!(fmu::fmi2GetFMUstate(a, &mut s), Fmi2Status::Ok);
+            let mut size = 0;
+            assert_eq!(fmu::fmi2SerializedFMUstateSize(a, s, &mut size), Fmi2Status::Ok);
+            let mut bytes = vec![0u8; size];
+            assert_eq!(fmu::fmi2SerializeFMUstate(a, s, bytes.as_mut_ptr().cast(), size), Fmi2Status::Ok);
+            take_messages("foreign");
+            let mut t: Fmi2FmuState = ptr::null_mut();
+            let status = fmu::fmi2DeSerializeFMUstate(b, bytes.as_ptr().cast(), size, &mut t);
+            let messages = take_messages("foreign");
+            assert_eq!(status, Fmi2Status::Error, "{} state into {}", from.id(), to.id());
+            assert!(t.is_null(), "a refused state leaves FMUstate NULL");
+            assert!(messages.iter().any(|(_, m)| m.contains("FMU state of another FMU")), "{messages:?}");
+            assert_eq!(fmu::fmi2FreeFMUstate(a, &mut s), Fmi2Status::Ok);
+            fmu::fmi2FreeInstance(a);
+            fmu::fmi2FreeInstance(b);
+        }
+    }
 }
 
 /// A saved state with its model-state tag replaced by every tag: the FMU
@@ -1498,17 +1627,17 @@ fn rejected_calls_leave_the_instance_usable() {
 fn crafted_state_tags_are_refused_or_harmless() {
     let callbacks = callbacks();
     let name = c"crafted".to_owned();
-    for initialised in [false, true] {
+    for (table, initialised) in Table::all().into_iter().flat_map(|t| [(t, false), (t, true)]) {
         for tag in [0u8, 1, 2, 4, 8, 16, 32, 64, 128] {
             // SAFETY: a live instance, valid pointers and lengths.
             unsafe {
                 let c = if initialised {
-                    running_instance(&name, &callbacks)
+                    running_instance(table, &name, &callbacks)
                 } else {
                     fmu::fmi2Instantiate(
                         name.as_ptr(),
                         FMI2_COSIMULATION,
-                        guid().as_ptr(),
+                        table.guid().as_ptr(),
                         ptr::null(),
                         &callbacks,
                         0,
@@ -1527,15 +1656,15 @@ fn crafted_state_tags_are_refused_or_harmless() {
                 let restored = fmu::fmi2DeSerializeFMUstate(c, bytes.as_ptr().cast(), size, &mut t) == Fmi2Status::Ok
                     && fmu::fmi2SetFMUstate(c, t) == Fmi2Status::Ok;
                 // Whatever state it claims now, every call answers without an internal error.
-                let (r, mut x, mut flag) = ([vr("F")], [0.0], 0);
-                fmu::fmi2DoStep(c, 0.0, 0.005, 1);
+                let (r, mut x, mut flag) = ([table.estimate()], [0.0], 0);
+                fmu::fmi2DoStep(c, 0.0, table.sample_time(), 1);
                 fmu::fmi2GetReal(c, r.as_ptr(), 1, x.as_mut_ptr());
                 fmu::fmi2GetBooleanStatus(c, FMI2_TERMINATED, &mut flag);
                 fmu::fmi2Terminate(c);
                 let reset = fmu::fmi2Reset(c);
                 let freed = (fmu::fmi2FreeFMUstate(c, &mut s), fmu::fmi2FreeFMUstate(c, &mut t));
                 let messages = take_messages("crafted");
-                let what = format!("tag {tag} (initialised {initialised}): {messages:?}");
+                let what = format!("{} tag {tag} (initialised {initialised}): {messages:?}", table.id());
                 // Never saved: no tag, StartAndEnd, StepInProgress, StepCanceled; and
                 // StepComplete / StepFailed need the filter an initialised instance has.
                 let never = matches!(tag, 0 | 1 | 16 | 64) || (!initialised && matches!(tag, 8 | 32));
@@ -1578,32 +1707,36 @@ fn logger_gets_the_component_environment() {
             seen.env = env;
         }
     }
-    let mut seen = Seen { env: ptr::null_mut(), calls: Vec::new() };
-    let env: *mut c_void = (&mut seen as *mut Seen).cast();
     type SixArguments = unsafe extern "C" fn(*mut c_void, Fmi2String, i32, Fmi2String, Fmi2String, Fmi2String);
     let direct: SixArguments = six_argument_logger;
     // SAFETY: see the function's documentation: the FMU calls it with exactly six arguments.
     type Variadic = unsafe extern "C" fn(*mut c_void, Fmi2String, i32, Fmi2String, Fmi2String, ...);
     let logger: Fmi2CallbackLogger = Some(unsafe { std::mem::transmute::<SixArguments, Variadic>(direct) });
-    let callbacks = Fmi2CallbackFunctions { component_environment: env, logger, ..self::callbacks() };
     let name = c"env%s%n".to_owned();
-    // SAFETY: valid strings and callbacks; `seen` outlives the instance.
-    unsafe {
-        let c = fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, guid().as_ptr(), ptr::null(), &callbacks, 0, 1);
-        assert!(!c.is_null());
-        assert_eq!(fmu::fmi2DoStep(c, 0.0, 0.005, 1), Fmi2Status::Error);
-        let bad = c"%s%s%n".as_ptr();
-        assert_eq!(fmu::fmi2SetDebugLogging(c, 1, 1, &bad), Fmi2Status::Error);
-        fmu::fmi2FreeInstance(c);
+    for table in Table::all() {
+        let mut seen = Seen { env: ptr::null_mut(), calls: Vec::new() };
+        let env: *mut c_void = (&mut seen as *mut Seen).cast();
+        let callbacks = Fmi2CallbackFunctions { component_environment: env, logger, ..self::callbacks() };
+        // SAFETY: valid strings and callbacks; `seen` outlives the instance.
+        unsafe {
+            let guid = table.guid();
+            let c =
+                fmu::fmi2Instantiate(name.as_ptr(), FMI2_COSIMULATION, guid.as_ptr(), ptr::null(), &callbacks, 0, 1);
+            assert!(!c.is_null());
+            assert_eq!(fmu::fmi2DoStep(c, 0.0, table.sample_time(), 1), Fmi2Status::Error);
+            let bad = c"%s%s%n".as_ptr();
+            assert_eq!(fmu::fmi2SetDebugLogging(c, 1, 1, &bad), Fmi2Status::Error);
+            fmu::fmi2FreeInstance(c);
+        }
+        assert_eq!(seen.env, env, "{}: componentEnvironment unchanged", table.id());
+        assert_eq!(seen.calls.len(), 2, "{:?}", seen.calls);
+        for (name, status, category, format, _) in &seen.calls {
+            assert_eq!(
+                (name.as_str(), *status, category.as_str(), format.as_str()),
+                ("env%s%n", 3, "logStatusError", "%s")
+            );
+        }
+        assert!(seen.calls[0].4.contains("illegal call sequence"), "{:?}", seen.calls[0]);
+        assert!(seen.calls[1].4.contains("'%s%s%n'"), "{:?}", seen.calls[1]);
     }
-    assert_eq!(seen.env, env, "componentEnvironment unchanged");
-    assert_eq!(seen.calls.len(), 2, "{:?}", seen.calls);
-    for (name, status, category, format, _) in &seen.calls {
-        assert_eq!(
-            (name.as_str(), *status, category.as_str(), format.as_str()),
-            ("env%s%n", 3, "logStatusError", "%s")
-        );
-    }
-    assert!(seen.calls[0].4.contains("illegal call sequence"), "{:?}", seen.calls[0]);
-    assert!(seen.calls[1].4.contains("'%s%s%n'"), "{:?}", seen.calls[1]);
 }
