@@ -22,7 +22,7 @@ pub struct Args {
     /// Which study to run: s1, s2, s3, s4, s5 or all.
     #[arg(long, default_value = "all")]
     pub study: String,
-    /// A short run for smoke tests (S1: 10 s of signal; S2: 2 s); the figures are then not
+    /// A short run for smoke tests (S1: 10 s of signal; S2: 2.5 s); the figures are then not
     /// the published set-up.
     #[arg(long)]
     pub quick: bool,
@@ -32,7 +32,7 @@ pub struct Args {
     /// Accelerometer noise as a fraction of each channel's RMS.
     #[arg(long, default_value_t = 0.02)]
     pub noise: f64,
-    /// Simulated duration in seconds (default: S1 60, or 10 with --quick; S2 4, or 2).
+    /// Simulated duration in seconds (default: S1 60, or 10 with --quick; S2 4, or 2.5).
     #[arg(long)]
     pub duration: Option<f64>,
     /// S2's sampling rate (Hz): 1000 (axle-box data acquisition) or 200 (the paper).
@@ -86,8 +86,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     seed: args.seed,
                     noise_fraction: args.noise,
                     rate: args.s2_rate,
+                    // The weld reaches the last wheel 1.9 s in.
                     duration: args.duration.unwrap_or(if args.quick {
-                        2.0
+                        2.5
                     } else {
                         s2::study::Settings::default().duration
                     }),
