@@ -137,7 +137,7 @@ pub(super) fn descriptor() -> Descriptor {
         Variable::tunable(
             "q_body_std",
             "1",
-            1e-4,
+            3e-5,
             "process noise std per sample of the car-body and bogie coordinates and their velocities, each in its own SI unit (eq. (22): 3.2e-2; see the documentation)",
         )
         .bounded(Some(0.0), None),
@@ -169,7 +169,7 @@ pub(super) fn descriptor() -> Descriptor {
          primary dampers piecewise linear, secondary suspension linear; the four forces F_N are random walks. \
          Coordinates are deviations from static equilibrium, up; the forces include the static wheel load.</p>\
          <p>Defaults: Zhai's high-speed passenger car; the paper's set-up (eq. (22)) with the forces' noise as an \
-         intensity and the motion states' noise at 1e-4 and 1e-5 per sample instead of 3.2e-2 and 1e-3 (with the \
+         intensity and the motion states' noise at 3e-5 and 1e-5 per sample instead of 3.2e-2 and 1e-3 (with the \
          paper's values the positions drift unobserved and the forces' standard deviation grows to hundreds of kN); \
          1 kHz sampling, as axle-box data acquisition records.</p>",
         variables: v,
