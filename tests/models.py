@@ -7,7 +7,8 @@ operations is kept, because it decides the rounding:
 
 - `PiecewiseLinear`       <- estimator/src/models/piecewise.rs
 - `Oscillator2Dof*`       <- estimator/src/models/oscillator_2dof.rs
-- `SpringChainForces`     <- estimator/src/models/spring_chain.rs
+- `VerticalVehicle`, `WheelRailVertical`
+                          <- estimator/src/models/wheel_rail_vertical.rs
 - `Rk4Discretized`        <- estimator/src/integrate.rs (`Rk4::step`, `Discretized`)
 
 A model offers `n`, `m`, `derivative(x)`, `observe(x)`; `Rk4Discretized`
@@ -25,12 +26,13 @@ __all__ = [
     "PiecewiseLinear",
     "Oscillator2Dof",
     "Oscillator2DofLoad",
-    "SpringChainForces",
+    "VerticalVehicle",
+    "WheelRailVertical",
     "Rk4Discretized",
     "MODELS",
     "simulate",
     "s1_spec",
-    "chain_spec",
+    "wheel_rail_spec",
     "run_filterpy",
     "run_replay",
     "relative_differences",
@@ -134,47 +136,95 @@ class Oscillator2DofLoad:
         return np.array([a1, a2])
 
 
-class SpringChainForces:
-    """Ten 100 kg masses from the ground, 1e5 N/m springs, dampers 2e3 N s/m up
-    to 0.1 m/s and 5e2 beyond; forces on masses 2, 4, 6, 9 (0-based); sensors
-    at masses 0, 1, 3, 4, 6, 7, 9. State [z(10), zdot(10), F(4)]."""
+@dataclass(frozen=True)
+class VerticalVehicle:
+    """The half of a four-axle vehicle on one rail, as the estimator knows it
+    (masses and pitch inertias on this rail, suspension per axle box and per side)."""
 
-    MASSES = 10
-    FORCES = np.array([2, 4, 6, 9])
-    SENSORS = np.array([0, 1, 3, 4, 6, 7, 9])
+    car_body_mass: float
+    car_body_pitch_inertia: float
+    bogie_mass: float
+    bogie_pitch_inertia: float
+    wheelset_mass: float
+    primary_stiffness: float
+    primary_damper: PiecewiseLinear
+    secondary_stiffness: float
+    secondary_damping: float
+    half_bogie_spacing: float
+    half_wheelbase: float
+    static_wheel_load: float
+
+    #: Gravity for the static wheel load (m/s²).
+    G = 9.81
+
+    @staticmethod
+    def half_of(car_body, bogie, wheelset_mass, primary, secondary, half_bogie_spacing, half_wheelbase):
+        """Half of a vehicle given whole; `P_st` is an eighth of its weight."""
+        return VerticalVehicle(
+            car_body_mass=car_body[0] / 2.0,
+            car_body_pitch_inertia=car_body[1] / 2.0,
+            bogie_mass=bogie[0] / 2.0,
+            bogie_pitch_inertia=bogie[1] / 2.0,
+            wheelset_mass=wheelset_mass / 2.0,
+            primary_stiffness=primary[0],
+            primary_damper=primary[1],
+            secondary_stiffness=secondary[0],
+            secondary_damping=secondary[1],
+            half_bogie_spacing=half_bogie_spacing,
+            half_wheelbase=half_wheelbase,
+            static_wheel_load=(car_body[0] + 2.0 * bogie[0] + 4.0 * wheelset_mass) * VerticalVehicle.G / 8.0,
+        )
+
+    @staticmethod
+    def zhai_passenger() -> "VerticalVehicle":
+        """Half of Zhai's high-speed passenger car, the primary damper blowing off to a
+        third of its slope beyond 0.1 m/s (P_st = 55.9 kN)."""
+        damper = PiecewiseLinear((6e3, 2e3, 2e3), (0.1, 0.1))
+        return VerticalVehicle.half_of((34e3, 2.277e6), (3e3, 2_710.0), 1_400.0, (0.55e6, damper), (0.4e6, 8e4), 9.0, 1.2)
+
+    def accelerations(self, z: np.ndarray, v: np.ndarray, f_n: np.ndarray) -> np.ndarray:
+        """The ten accelerations in state order; each element computed as in the Rust
+        loops (bogie i at d = +l_c, -l_c; wheelset j = 2i + k at e = +l_t, -l_t)."""
+        lc, lt = self.half_bogie_spacing, self.half_wheelbase
+        d = np.array([lc, -lc])
+        stretch = z[2:4] - z[0] - d * z[1]
+        rate = v[2:4] - v[0] - d * v[1]
+        f_s = self.secondary_stiffness * stretch + self.secondary_damping * rate
+        bogie = np.array([0, 0, 1, 1])  # the bogie of wheelset j
+        e = np.array([lt, -lt, lt, -lt])
+        stretch = z[6:10] - z[2 + bogie] - e * z[4 + bogie]
+        rate = v[6:10] - v[2 + bogie] - e * v[4 + bogie]
+        f_p = self.primary_stiffness * stretch + self.primary_damper.force_array(rate)
+        a = np.empty(10)
+        a[0] = (f_s[0] + f_s[1]) / self.car_body_mass
+        a[1] = (f_s[0] - f_s[1]) * lc / self.car_body_pitch_inertia
+        a[2:4] = (f_p[0::2] + f_p[1::2] - f_s) / self.bogie_mass
+        a[4:6] = (f_p[0::2] - f_p[1::2]) * lt / self.bogie_pitch_inertia
+        a[6:10] = (-f_p - self.static_wheel_load + f_n) / self.wheelset_mass
+        return a
+
+
+class WheelRailVertical:
+    """Study S2's estimation model, eq. (7): state [z_c, beta_c, z_t1, z_t2,
+    beta_t1, beta_t2, z_w1..4, their 10 velocities, F_N1..4]; measurements the
+    bounce accelerations [z_c, z_t1, z_t2, z_w1..4] (m/s², up)."""
+
+    FORCES = 20
+    MEASURED = np.array([0, 2, 3, 6, 7, 8, 9])
     n = 24
     m = 7
 
-    def __init__(self) -> None:
-        self.mass = 100.0
-        self.stiffness = 1e5
-        self.damper = PiecewiseLinear((2e3, 5e2, 5e2), (0.1, 0.1))
-
-    def accelerations(self, x: np.ndarray) -> np.ndarray:
-        k = self.MASSES
-        z, v, f = x[:k], x[k : 2 * k], x[2 * k :]
-        # Element i joins mass i-1 (or the ground) to mass i.
-        dz = np.empty(k)
-        dv = np.empty(k)
-        dz[0], dv[0] = z[0], v[0]
-        dz[1:] = z[1:] - z[:-1]
-        dv[1:] = v[1:] - v[:-1]
-        element = self.stiffness * dz + self.damper.force_array(dv)
-        above = np.append(element[1:], 0.0)
-        inv_mass = 1.0 / self.mass  # multiplied, as the Rust model does (no divisions in the hot loop)
-        out = (above - element) * inv_mass
-        out[self.FORCES] += f * inv_mass
-        return out
+    def __init__(self, vehicle: VerticalVehicle):
+        self.vehicle = vehicle
 
     def derivative(self, x: np.ndarray) -> np.ndarray:
-        k = self.MASSES
         out = np.zeros(self.n)
-        out[:k] = x[k : 2 * k]
-        out[k : 2 * k] = self.accelerations(x)
+        out[:10] = x[10:20]
+        out[10:20] = self.vehicle.accelerations(x[:10], x[10:20], x[20:24])
         return out
 
     def observe(self, x: np.ndarray) -> np.ndarray:
-        return self.accelerations(x)[self.SENSORS]
+        return self.vehicle.accelerations(x[:10], x[10:20], x[20:24])[self.MEASURED]
 
 
 class Rk4Discretized:
@@ -211,7 +261,7 @@ class Rk4Discretized:
 MODELS = {
     "oscillator_2dof_stiffness": lambda: Oscillator2DofLoad(Oscillator2Dof.stiffness_nonlinear()),
     "oscillator_2dof_damping": lambda: Oscillator2DofLoad(Oscillator2Dof.damping_nonlinear()),
-    "spring_chain_24": SpringChainForces,
+    "wheel_rail_vertical_24": lambda: WheelRailVertical(VerticalVehicle.zhai_passenger()),
 }
 
 
@@ -239,11 +289,26 @@ def _truth_step(field, x: np.ndarray, t: float, h: float, loads, slots) -> np.nd
     return x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def simulate(model_name: str, steps: int, dt: float, seed: int, accel_sigma: float, missing_every: int = 0):
+def simulate(
+    model_name: str,
+    steps: int,
+    dt: float,
+    seed: int,
+    accel_sigma: float | None = None,
+    missing_every: int = 0,
+    noise_fraction: float | None = None,
+):
     """Truth and accelerometer rows for `model_name`, the unknown forces a sum
-    of sines; the truth integrated with 10 RK4 sub-steps per sample. Row k is
-    the measurement at t = (k + 1)·dt (replay predicts, then updates). Every
-    `missing_every`-th row (if > 0) is fully missing (None)."""
+    of sines (S1's load; for the wheel-rail model the static wheel load plus
+    two sines per wheel, phases seeded); the truth integrated with 10 RK4 sub-steps
+    per sample. Row k is the measurement at t = (k + 1)·dt (replay predicts,
+    then updates). The noise is white, of standard deviation `accel_sigma` on
+    every channel or, with `noise_fraction`, that fraction of each channel's
+    RMS (as study S2 sets it). Every `missing_every`-th row (if > 0) is fully
+    missing (None). Returns the truth (steps × n), the rows and the noise's
+    standard deviation per channel."""
+    if (accel_sigma is None) == (noise_fraction is None):
+        raise ValueError("give accel_sigma or noise_fraction")
     rng = np.random.default_rng(seed)
     field = MODELS[model_name]()
     if isinstance(field, Oscillator2DofLoad):
@@ -253,18 +318,23 @@ def simulate(model_name: str, steps: int, dt: float, seed: int, accel_sigma: flo
             return np.array([4.0 * math.sin(2 * math.pi * 0.4 * t) + 2.0 * math.sin(2 * math.pi * 1.3 * t + 0.5) + 1.0])
 
     else:
-        slots = 2 * SpringChainForces.MASSES + np.arange(4)
-        amp = np.array([800.0, -500.0, 600.0, 400.0])
-        freq = np.array([1.5, 3.0, 0.7, 5.0])
-        phase = rng.uniform(0, 2 * math.pi, 4)
+        slots = WheelRailVertical.FORCES + np.arange(4)
+        static = field.vehicle.static_wheel_load
+        # Per wheel (columns), a slow part (long-wavelength track geometry) and a P2-like
+        # part (a dipped weld's 35-70 Hz): 34 to 78 kN in all. Wheels 1 and 2 move at up to
+        # 0.18-0.21 and 0.12-0.15 m/s against their bogie (1000 samples, seeds 1, 2 and 7),
+        # past the primary dampers' 0.1 m/s knee.
+        amp = np.array([[2e3, -1.5e3, 1e3, 1.2e3], [20e3, -15e3, 10e3, 8e3]])
+        freq = np.array([[1.5, 2.0, 2.5, 3.0], [35.0, 42.0, 58.0, 71.0]])
+        phase = rng.uniform(0, 2 * math.pi, (2, 4))
 
         def loads(t):
-            return amp * np.sin(2 * math.pi * freq * t + phase)
+            return static + (amp * np.sin(2 * math.pi * freq * t + phase)).sum(axis=0)
 
     x = np.zeros(field.n)
     sub = 10
     h = dt / sub
-    truth, rows = [], []
+    truth, clean = [], []
     for k in range(steps):
         t0 = k * dt
         for s in range(sub):
@@ -272,15 +342,21 @@ def simulate(model_name: str, steps: int, dt: float, seed: int, accel_sigma: flo
         t = (k + 1) * dt
         x[slots] = loads(t)
         truth.append(x.copy())
-        z = field.observe(x) + accel_sigma * rng.standard_normal(field.m)
-        rows.append(None if missing_every and (k + 1) % missing_every == 0 else [float(v) for v in z])
-    return np.array(truth), rows
+        clean.append(field.observe(x))
+    clean = np.array(clean)
+    if noise_fraction is not None:
+        sigma = noise_fraction * np.sqrt(np.mean(clean**2, axis=0))
+    else:
+        sigma = np.full(field.m, float(accel_sigma))
+    z = clean + sigma * rng.standard_normal((steps, field.m))
+    rows = [None if missing_every and (k + 1) % missing_every == 0 else [float(v) for v in z[k]] for k in range(steps)]
+    return np.array(truth), rows, sigma
 
 
 def s1_spec(steps: int = 1000, seed: int = 20240607, missing_every: int = 97) -> dict:
     """Replay spec (without "filter") for study S1, stiffness-nonlinear chain, dt = 5 ms."""
     dt, sigma = 0.005, 0.01
-    _, rows = simulate("oscillator_2dof_stiffness", steps, dt, seed, sigma, missing_every)
+    _, rows, _ = simulate("oscillator_2dof_stiffness", steps, dt, seed, sigma, missing_every)
     return {
         "model": "oscillator_2dof_stiffness",
         "substeps": 1,
@@ -293,22 +369,32 @@ def s1_spec(steps: int = 1000, seed: int = 20240607, missing_every: int = 97) ->
     }
 
 
-def chain_spec(steps: int = 1000, seed: int = 7, missing_every: int = 0) -> dict:
-    """Replay spec (without "filter") for the 24-state spring chain, dt = 1 ms."""
-    dt, sigma = 1e-3, 0.01
-    n, m = SpringChainForces.n, SpringChainForces.m
-    _, rows = simulate("spring_chain_24", steps, dt, seed, sigma, missing_every)
+def wheel_rail_spec(steps: int = 1000, seed: int = 7, missing_every: int = 0) -> dict:
+    """Replay spec (without "filter") for study S2's 24-state wheel-rail model on
+    Zhai's car at 1 kHz: the model's own response to wheel-rail forces of the
+    static wheel load (55.9 kN) plus sines (34 to 78 kN), the
+    accelerometer noise 2 % of each channel's RMS, and the study's noise
+    (scenarios/src/s2/study.rs `Tuning`: motion noise 1e-8 car body and
+    bogies, 1e-10 wheelsets, per sample; the forces' random walk 1e13 N²/s; R
+    from the noise). The prior is at rest under the static load, as the
+    study's, but with standard deviations of 1 mm (1 mrad), 1 cm/s (10 mrad/s)
+    and 1 kN rather than its 1e-2 on everything: 10 cm of doubt on the
+    positions makes the estimate ill-conditioned in the data (filterpy moves
+    by over 10 % when the measurements move by one ulp), and no two
+    implementations can agree there."""
+    dt = 1e-3
+    model = MODELS["wheel_rail_vertical_24"]()
+    _, rows, sigma = simulate("wheel_rail_vertical_24", steps, dt, seed, missing_every=missing_every, noise_fraction=0.02)
+    motion = [1e-8] * 6 + [1e-10] * 4
     return {
-        "model": "spring_chain_24",
+        "model": "wheel_rail_vertical_24",
         "substeps": 1,
-        # Process noise large enough that P stays well conditioned (with 1e-12 on
-        # positions the filters agree only to ~1e-9, filterpy with itself too).
-        "q": [1e-8] * 10 + [1e-5] * 10 + [1e3] * 4,
-        "r": [sigma**2] * m,
-        "x0": [0.0] * n,
-        "p0": [1e-4] * 10 + [1e-2] * 10 + [1e6] * 4,
+        "q": motion + motion + [1e13 * dt] * 4,
+        "r": [float(s) ** 2 for s in sigma],
+        "x0": [0.0] * 20 + [model.vehicle.static_wheel_load] * 4,
+        "p0": [1e-6] * 10 + [1e-4] * 10 + [1e6] * 4,
         "dt": dt,
-        "measurements": [r if r is not None else [None] * m for r in rows],
+        "measurements": [r if r is not None else [None] * model.m for r in rows],
     }
 
 

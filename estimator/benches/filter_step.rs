@@ -4,9 +4,8 @@
 //!
 //! * `s1_6`: study S1, `Discretized::rk4(Oscillator2DofLoad::new(Oscillator2Dof::stiffness_nonlinear()), 1)`,
 //!   n = 6, m = 2;
-//! * `chain_24`: `Discretized::rk4(SpringChainForces::default(), 1)`, n = 24, m = 7;
 //! * `wheel_rail_24`: study S2, `Discretized::rk4(WheelRailVertical { .. }, 1)` for Zhai's
-//!   passenger car, n = 24, m = 7, with the study's tuning;
+//!   passenger car, n = 24, m = 7, with the study's tuning,
 //!
 //! all at `dt = 0.005 s`. Benchmarks are named `step/<model>/<filter>`.
 //!
@@ -34,7 +33,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use criterion::Criterion;
-use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces, VerticalVehicle, WheelRailVertical};
+use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical};
 use estimator::{
     CubatureKalman, Discretized, ExtendedKalman, FilterError, Gaussian, Model, Noise, SquareRootCubature,
     StateEstimator, SvdCubature, UnscentedKalman, UnscentedParams,
@@ -241,25 +240,6 @@ fn s1() -> Case<Discretized<Oscillator2DofLoad>> {
     Case::simulate("s1_6", model, noise, prior, &x0, &q_true, &[1e-4, 1e-4], 1)
 }
 
-/// The 24-state chain: state `[z₁ … z₁₀, ż₁ … ż₁₀, F₁ … F₄]`, seven accelerometers.
-fn chain() -> Case<Discretized<SpringChainForces>> {
-    let model = Discretized::rk4(SpringChainForces::default(), 1);
-    let q: Vec<f64> = [1e-12; 10].into_iter().chain([1e-8; 10]).chain([1e2; 4]).collect();
-    let noise = Noise::diagonal(&q, &[1e-2; 7]).expect("valid chain noise");
-    let p0: Vec<f64> = [1e-4; 10].into_iter().chain([1e-1; 10]).chain([1e6; 4]).collect();
-    let prior = Gaussian::diagonal(&[0.0; 24], &p0);
-    // The truth starts with displaced, moving masses (relative velocities past
-    // the damper breakpoint) and forces that drift as random walks.
-    let mut x0 = [0.0; 24];
-    for i in 0..10 {
-        x0[i] = 1e-3 * (i as f64 + 1.0);
-        x0[10 + i] = if i % 2 == 0 { 0.3 } else { -0.2 };
-    }
-    x0[20..].copy_from_slice(&[500.0, -300.0, 200.0, 100.0]);
-    let q_true: Vec<f64> = [0.0; 20].into_iter().chain([1e2; 4]).collect();
-    Case::simulate("chain_24", model, noise, prior, &x0, &q_true, &[1e-2; 7], 2)
-}
-
 /// Study S2: the half vehicle on one rail (Zhai's passenger car), the four wheel–rail
 /// forces as random walks, seven accelerometers; the study's tuning
 /// (`scenarios/src/s2/study.rs`).
@@ -286,15 +266,13 @@ fn wheel_rail() -> Case<Discretized<WheelRailVertical>> {
 }
 
 fn main() {
-    let (s1, chain, wheel_rail) = (s1(), chain(), wheel_rail());
+    let (s1, wheel_rail) = (s1(), wheel_rail());
 
     s1.for_each_filter(&mut CheckAndCountAllocations);
-    chain.for_each_filter(&mut CheckAndCountAllocations);
     wheel_rail.for_each_filter(&mut CheckAndCountAllocations);
 
     let mut criterion = Criterion::default().configure_from_args();
     s1.for_each_filter(&mut Bench(&mut criterion));
-    chain.for_each_filter(&mut Bench(&mut criterion));
     wheel_rail.for_each_filter(&mut Bench(&mut criterion));
     criterion.final_summary();
 }

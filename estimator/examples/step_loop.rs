@@ -1,6 +1,6 @@
-//! A bare loop of filter steps on the 24-state chain, for profilers: unlike the
-//! criterion benchmark it does a known number of steps, so instruction counts
-//! divide into a per-step figure.
+//! A bare loop of filter steps on study S2's 24-state wheel–rail model (Zhai's passenger
+//! car, the study's tuning at 1 kHz), for profilers: unlike the criterion benchmark it does
+//! a known number of steps, so instruction counts divide into a per-step figure.
 //!
 //! ```text
 //! cargo build --release -p estimator --example step_loop
@@ -10,18 +10,19 @@
 //!
 //! Arguments: the filter (`ckf`, `srckf`, `svd`, `ukf`, `ekf`; default `srckf`)
 //! and the number of predict + update steps (default 10000). The measurements
-//! are the model's own response from a displaced, moving start with forces
-//! that step every second, plus seeded noise; the sequence repeats every 2000 steps.
+//! are the model's own response from a displaced, moving start with wheel–rail forces
+//! that step about the static wheel load every 0.2 s, plus seeded noise; the sequence
+//! repeats every 2000 steps.
 
 use std::time::Instant;
 
-use estimator::models::SpringChainForces;
+use estimator::models::{VerticalVehicle, WheelRailVertical};
 use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, Observation, Process, UnscentedParams};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-const DT: f64 = 0.005;
+const DT: f64 = 0.001;
 const SEQUENCE: usize = 2000;
 
 fn main() {
@@ -39,31 +40,39 @@ fn main() {
     };
     let steps: usize = args.get(2).map_or(10_000, |s| s.parse().expect("the step count is an integer"));
 
-    let mut model = Discretized::rk4(SpringChainForces::default(), 1);
+    let vehicle = VerticalVehicle::zhai_passenger();
+    let p_st = vehicle.static_wheel_load;
+    let mut model = Discretized::rk4(WheelRailVertical { vehicle }, 1);
     let (n, m) = (model.state_dim(), model.measurement_dim());
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let mut x: Vec<f64> = (0..n).map(|i| if i < 10 { 1e-3 * (i + 1) as f64 } else { 0.0 }).collect();
+    let mut x = vec![0.0; n];
     for i in 0..10 {
-        x[10 + i] = if i % 2 == 0 { 0.3 } else { -0.2 };
+        x[i] = 1e-4 * (i + 1) as f64;
+        x[10 + i] = if i % 2 == 0 { 0.02 } else { -0.01 };
     }
     let (mut x_next, mut y) = (vec![0.0; n], vec![0.0; m]);
     let mut z = Vec::with_capacity(SEQUENCE * m);
     for k in 0..SEQUENCE {
         if k % 200 == 0 {
-            for f in &mut x[20..] {
-                *f = 500.0 * rng.sample::<f64, _>(StandardNormal);
+            for f in &mut x[WheelRailVertical::FORCES..] {
+                *f = p_st + 5e3 * rng.sample::<f64, _>(StandardNormal);
             }
         }
         model.transition(k as f64 * DT, DT, &x, &[], &mut x_next);
         x.copy_from_slice(&x_next);
         model.observe((k + 1) as f64 * DT, &x, &[], &mut y);
-        z.extend(y.iter().map(|v| v + 0.1 * rng.sample::<f64, _>(StandardNormal)));
+        z.extend(y.iter().map(|v| v + 0.05 * rng.sample::<f64, _>(StandardNormal)));
     }
 
-    let q: Vec<f64> = [1e-12; 10].into_iter().chain([1e-8; 10]).chain([1e2; 4]).collect();
-    let noise = Noise::diagonal(&q, &[1e-2; 7]).expect("valid noise");
-    let p0: Vec<f64> = [1e-4; 10].into_iter().chain([1e-1; 10]).chain([1e6; 4]).collect();
-    let prior = Gaussian::diagonal(&[0.0; 24], &p0);
+    // The study's tuning (scenarios/src/s2/study.rs, `Tuning`): motion noise 1e-8 (car body,
+    // bogies) and 1e-10 (wheelsets) per sample, force intensity 1e13 N²/s, prior 1e-2
+    // about the static load.
+    let motion: Vec<f64> = [1e-8; 6].into_iter().chain([1e-10; 4]).collect();
+    let q: Vec<f64> = motion.iter().chain(&motion).copied().chain([1e13 * DT; 4]).collect();
+    let noise = Noise::diagonal(&q, &[0.05 * 0.05; 7]).expect("valid noise");
+    let mut mean = [0.0; 24];
+    mean[WheelRailVertical::FORCES..].fill(p_st);
+    let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
     let ukf = UnscentedParams { alpha: 1.0, beta: 0.0, kappa: 0.0 };
     let mut filter = build_filter(kind, model, noise, &prior, ukf).expect("the filter builds");
 
@@ -80,6 +89,6 @@ fn main() {
     println!(
         "{kind:?}: {steps} steps, {:.2} µs per step, final force estimates {:?}",
         elapsed.as_secs_f64() * 1e6 / steps as f64,
-        &filter.mean().as_slice()[20..]
+        &filter.mean().as_slice()[WheelRailVertical::FORCES..]
     );
 }

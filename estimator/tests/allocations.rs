@@ -10,7 +10,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use common::*;
-use estimator::models::{SpringChainForces, VerticalVehicle, WheelRailVertical};
+use estimator::models::{VerticalVehicle, WheelRailVertical};
 use estimator::{
     build_filter, Discretized, FilterKind, Gaussian, Model, Noise, StateEstimator, Supervisor, SupervisorSettings,
     UnscentedParams,
@@ -165,22 +165,6 @@ fn copying_a_belief_between_twins_allocates_nothing_and_is_exact() {
             f.mean().iter().chain(f.covariance().iter()).map(|x| x.to_bits()).collect()
         };
         assert_eq!(bits(original.as_ref()), bits(twin.as_ref()), "{}", original.kind());
-    }
-}
-
-#[test]
-fn no_filter_allocates_per_step_on_the_24_state_chain() {
-    let model = Discretized::rk4(SpringChainForces::default(), 1);
-    let mut q = vec![1e-10; 20];
-    q.extend([1e4; 4]);
-    let noise = Noise::diagonal(&q, &[1e-4; 7]).unwrap();
-    let mut p0 = vec![1e-6; 20];
-    p0.extend([1e6; 4]);
-    let prior = Gaussian::diagonal(&[0.0; 24], &p0);
-    let zs: Vec<Vec<f64>> =
-        (0..100).map(|k| (0..7).map(|i| 0.01 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
-    for filter in every_filter(model, &noise, &prior, UnscentedParams::default()) {
-        assert_no_allocation_per_step(filter, &zs, 0.005);
     }
 }
 

@@ -1,7 +1,7 @@
 //! The batched model calls give the point-by-point numbers bit for bit, so a
 //! filter's result does not depend on whether a model overrides them.
 
-use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces};
+use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical};
 use estimator::{Component, Discretized, Observation, Process, VectorField, BLOCK_POINTS};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -36,9 +36,12 @@ fn assert_block_equals_pointwise<M: Process + Observation>(mut model: M, what: &
 }
 
 #[test]
-fn the_chain_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
-    assert_block_equals_pointwise(Discretized::rk4(SpringChainForces::default(), 1), "chain, 1 RK4 step");
-    assert_block_equals_pointwise(Discretized::rk4(SpringChainForces::default(), 3), "chain, 3 RK4 steps");
+fn the_wheel_rail_model_s_block_rk4_equals_its_point_rk4_bit_for_bit() {
+    // The S2 model has only point laws: the default block methods call them point by point,
+    // inside the lane-by-lane RK4 of `Discretized`.
+    let model = WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() };
+    assert_block_equals_pointwise(Discretized::rk4(model, 1), "wheel-rail, 1 RK4 step");
+    assert_block_equals_pointwise(Discretized::rk4(model, 3), "wheel-rail, 3 RK4 steps");
 }
 
 #[test]

@@ -5,7 +5,7 @@
 //! The spec (a JSON object; unknown fields are refused):
 //!
 //! ```text
-//! model         "oscillator_2dof_stiffness" | "oscillator_2dof_damping" | "spring_chain_24"
+//! model         "oscillator_2dof_stiffness" | "oscillator_2dof_damping" | "wheel_rail_vertical_24"
 //! substeps      RK4 steps per sample (default 1)
 //! filter        CKF | SRCKF | SVD-CKF | UKF | EKF (any case)
 //! ukf           {"alpha", "beta", "kappa"} for the UKF (each optional; default 1e-3, 2, 0)
@@ -35,7 +35,7 @@ use std::str::FromStr;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, ensure, Context};
-use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, SpringChainForces};
+use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical};
 use estimator::{
     build_filter, Discretized, FilterError, FilterKind, Gaussian, Model, Noise, StateEstimator, UnscentedParams,
     VectorField,
@@ -44,7 +44,6 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-/// Copies a row-major `n × n` list into a library matrix.
 /// Command-line arguments of `scenarios replay`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -142,21 +141,21 @@ pub enum ModelKind {
     Oscillator2DofStiffness,
     /// `Oscillator2DofLoad` on `Oscillator2Dof::damping_nonlinear()` (n = 6, m = 2).
     Oscillator2DofDamping,
-    /// `SpringChainForces::default()` (n = 24, m = 7).
-    SpringChain24,
+    /// Study S2's `WheelRailVertical` on `VerticalVehicle::zhai_passenger()` (n = 24, m = 7).
+    WheelRailVertical24,
 }
 
 impl ModelKind {
     /// Every model, in a fixed order.
     pub const ALL: [ModelKind; 3] =
-        [ModelKind::Oscillator2DofStiffness, ModelKind::Oscillator2DofDamping, ModelKind::SpringChain24];
+        [ModelKind::Oscillator2DofStiffness, ModelKind::Oscillator2DofDamping, ModelKind::WheelRailVertical24];
 
     /// The name used in specs.
     pub fn name(self) -> &'static str {
         match self {
             ModelKind::Oscillator2DofStiffness => "oscillator_2dof_stiffness",
             ModelKind::Oscillator2DofDamping => "oscillator_2dof_damping",
-            ModelKind::SpringChain24 => "spring_chain_24",
+            ModelKind::WheelRailVertical24 => "wheel_rail_vertical_24",
         }
     }
 
@@ -164,12 +163,17 @@ impl ModelKind {
     pub fn dims(self) -> (usize, usize) {
         match self {
             ModelKind::Oscillator2DofStiffness | ModelKind::Oscillator2DofDamping => (6, 2),
-            ModelKind::SpringChain24 => {
-                let model = SpringChainForces::default();
+            ModelKind::WheelRailVertical24 => {
+                let model = wheel_rail();
                 (VectorField::state_dim(&model), estimator::Observation::measurement_dim(&model))
             }
         }
     }
+}
+
+/// Study S2's estimation model on the catalogue vehicle.
+fn wheel_rail() -> WheelRailVertical {
+    WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() }
 }
 
 impl FromStr for ModelKind {
@@ -311,7 +315,7 @@ impl Replay {
             ModelKind::Oscillator2DofDamping => {
                 self.build_on(Oscillator2DofLoad::new(Oscillator2Dof::damping_nonlinear()))
             }
-            ModelKind::SpringChain24 => self.build_on(SpringChainForces::default()),
+            ModelKind::WheelRailVertical24 => self.build_on(wheel_rail()),
         };
         filter.with_context(|| format!("cannot build the {} filter on {}", self.kind, self.model.name()))
     }
@@ -535,6 +539,40 @@ mod tests {
                 assert_eq!((out.n, out.m, out.means.len()), (n, m, 3), "{} on {}", kind, model.name());
                 assert!(out.means.iter().flatten().all(|v| v.is_finite()));
             }
+        }
+    }
+
+    /// A wheel–rail replay at rest: zero motion, every force at `forces`, no acceleration measured.
+    fn wheel_rail_at_rest(forces: f64) -> Output {
+        let mut x0 = [0.0; 24];
+        x0[WheelRailVertical::FORCES..].fill(forces);
+        let q = [[1e-8; 6].as_slice(), &[1e-10; 4], &[1e-8; 6], &[1e-10; 4], &[1e7; 4]].concat();
+        let p0 = [[1e-6; 10].as_slice(), &[1e-4; 10], &[1e6; 4]].concat();
+        let spec = serde_json::json!({
+            "model": "wheel_rail_vertical_24", "filter": "SRCKF", "substeps": 2,
+            "q": q, "r": vec![1e-2; 7], "x0": x0, "p0": p0, "dt": 1e-3,
+            "measurements": vec![vec![0.0; 7]; 5],
+        });
+        let out = Replay::from_json(&spec.to_string()).unwrap().run().unwrap();
+        assert_eq!((out.model.as_str(), out.n, out.m), ("wheel_rail_vertical_24", 24, 7));
+        out
+    }
+
+    #[test]
+    fn the_wheel_rail_model_rests_under_zhai_s_static_wheel_load() {
+        // Carrying its static wheel load, the catalogue car measures no acceleration: the
+        // estimate stays at rest (up to rounding in the sigma points' sums).
+        let p_st = VerticalVehicle::zhai_passenger().static_wheel_load;
+        let rest = wheel_rail_at_rest(p_st);
+        for x in &rest.means {
+            assert!(x[..20].iter().all(|v| v.abs() < 1e-12), "{x:?}");
+            assert!(x[20..].iter().all(|f| (f - p_st).abs() < 1e-6 * p_st), "{x:?}");
+        }
+        // A car carrying 1 kN more per wheel would be accelerated: the zero readings pull the
+        // forces back down towards Zhai's load.
+        let heavier = wheel_rail_at_rest(p_st + 1e3);
+        for f in &heavier.means[4][20..] {
+            assert!(*f < p_st + 500.0, "{f} N: not pulled towards the static load {p_st} N");
         }
     }
 

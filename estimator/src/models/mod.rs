@@ -3,11 +3,9 @@
 mod linear;
 mod oscillator_2dof;
 mod piecewise;
-mod spring_chain;
 mod wheel_rail_vertical;
 
 pub use linear::LinearGaussian;
 pub use oscillator_2dof::{Oscillator2Dof, Oscillator2DofLoad};
 pub use piecewise::PiecewiseLinear;
-pub use spring_chain::SpringChainForces;
 pub use wheel_rail_vertical::{VerticalVehicle, WheelRailVertical};
