@@ -93,3 +93,13 @@ def s1_fmu(fmu_dir) -> Path:
 def s2_fmu(fmu_dir) -> Path:
     """Path of kalfmu_s2_wheel_rail.fmu."""
     yield packaged(fmu_dir, "kalfmu_s2_wheel_rail")
+
+
+#: Every estimator FMU, by the short name its parametrised tests carry in their ids.
+FMUS = {"s1": "kalfmu_s1_load", "s2": "kalfmu_s2_wheel_rail"}
+
+
+@pytest.fixture(scope="session", params=list(FMUS))
+def any_fmu(request, fmu_dir) -> Path:
+    """Path of each estimator FMU in turn: a test using it runs once per FMU."""
+    yield packaged(fmu_dir, FMUS[request.param])

@@ -1,21 +1,32 @@
-"""The packaged S1 estimator FMU (`kalfmu_s1_load.fmu`, FMI 2.0 Co-Simulation)
-driven through fmpy, as an importer drives it.
+"""The packaged estimator FMUs driven through fmpy, as an importer drives them:
+what holds for every FMU (parametrised over S1 `kalfmu_s1_load.fmu` and S2
+`kalfmu_s2_wheel_rail.fmu`, test ids `s1`, `s2`), and S1 against the library
+run in-process.
 
-What is specified here:
+What is specified here for every FMU:
 
-- the FMU passes both static checkers (fmpy's validation, fmutool -check);
+- the FMU passes both static checkers (fmpy's validation, fmutool -check),
+  and its shared library links only libc, libm and libgcc_s;
+- step by step (`fmpy.fmi2.FMU2Slave`; S1 on the study's table, S2 on a
+  vehicle at rest): illegal calls are refused and leave the instance as it
+  was, instances are independent, FMU states roll back and restore in a new
+  instance exactly, NaN inputs are skipped, counted and reported once per
+  input, tunable parameters change between steps and fixed ones do not, a
+  measurement enters once however often the inputs are set and read, a step
+  of several samples predicts through those inside it, and a step ending
+  between samples warns once and reads the prediction to its end.
+
+For S1 (`kalfmu_s1_load.fmu`, FMI 2.0 Co-Simulation) in addition:
+
 - `fmpy.simulate_fmu` on the S1 input table (`scenarios s1-export`), as it
   is, gives the estimates of the library run in-process (`scenarios replay`)
   at the time stamps fmpy records them, and those track the true load at
   their own time stamps;
-- step by step (`fmpy.fmi2.FMU2Slave`): reads after the inputs of t are the
-  library's estimates at t (direct feedthrough), reads after the step its
-  predictions; the timing rules hold for communication steps of 1 ms and
-  10 ms at a 5 ms sample time and for the Gauss-Seidel input timing;
-  illegal calls are refused and leave the instance as it was, instances are
-  independent, FMU states roll back and restore in a new instance exactly,
-  NaN inputs are skipped and counted, and tunable parameters change between
-  steps and fixed ones do not.
+- step by step: reads after the inputs of t are the library's estimates at t
+  (direct feedthrough), reads after the step its predictions, with NaN inputs
+  too; the timing rules hold for communication steps of 1 ms and 10 ms at a
+  5 ms sample time and for the Gauss-Seidel input timing; gross measurement
+  errors are flagged and the load stays within its sigma.
 
 Time (fmu/src/timing.rs, the FMU's documentation/index.html): an input set at
 communication point t is the measurement at t. The table holds the plant's
@@ -51,6 +62,7 @@ from fmpy.fmi2 import (
 from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
 
+from conftest import FMUS, packaged
 from models import run_replay
 
 DT = 0.005  # the FMU's default sample_time, and the study's 200 Hz
@@ -188,12 +200,12 @@ SAME_LAW = {"eps1": 1e300, "eps2": 1e300}
 
 
 
-def test_the_shared_library_depends_only_on_libc_libm_and_libgcc_s(s1_fmu, unzipped, model_description):
-    """The binary in the FMU links nothing but the C runtime (libc, libm,
+def test_the_shared_library_depends_only_on_libc_libm_and_libgcc_s(any_fmu, tmp_path):
+    """The binary in each FMU links nothing but the C runtime (libc, libm,
     libgcc_s, and the dynamic loader): importers on other machines need no
     extra library."""
-    identifier = model_description.coSimulation.modelIdentifier
-    so = unzipped / "binaries" / "linux64" / f"{identifier}.so"
+    identifier = read_model_description(str(any_fmu)).coSimulation.modelIdentifier
+    so = Path(extract(str(any_fmu), str(tmp_path))) / "binaries" / "linux64" / f"{identifier}.so"
     assert so.is_file()
     out = subprocess.run(["ldd", str(so)], check=True, capture_output=True, text=True).stdout
     names = [line.split()[0] for line in out.splitlines() if line.strip()]
@@ -201,16 +213,17 @@ def test_the_shared_library_depends_only_on_libc_libm_and_libgcc_s(s1_fmu, unzip
     assert names and all(n.startswith(allowed) for n in names), out
     assert any(n.startswith("libc.so") for n in names), out
 
-def test_fmpy_validation_finds_no_problem(s1_fmu):
+
+def test_fmpy_validation_finds_no_problem(any_fmu):
     """fmpy's validation (XSD, names, ModelStructure, start values,
     causality/variability, units) reports no problem."""
-    assert validate_fmu(str(s1_fmu)) == []
+    assert validate_fmu(str(any_fmu)) == []
 
 
-def test_fmutool_check_passes(s1_fmu):
+def test_fmutool_check_passes(any_fmu):
     """`fmutool -input X.fmu -check` (fmu-manipulation-toolbox: XSD and
     FMI 2.0 semantics) exits with 0."""
-    proc = subprocess.run([str(FMUTOOL), "-input", str(s1_fmu), "-check"], capture_output=True, text=True)
+    proc = subprocess.run([str(FMUTOOL), "-input", str(any_fmu), "-check"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "compliant with FMI-2.0" in proc.stdout + proc.stderr
 
@@ -330,7 +343,7 @@ def test_communication_steps_of_1_and_10_ms_at_a_5_ms_sample_time(
 
 
 # --------------------------------------------------------------------------
-# Step by step with FMU2Slave.
+# Step by step with FMU2Slave, on every FMU.
 # --------------------------------------------------------------------------
 
 
@@ -363,6 +376,18 @@ class Slave:
         self.real_outputs = [
             v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"
         ]
+        # What the FMU-generic tests drive and watch, found in the model description.
+        self.dt = float(md.defaultExperiment.stepSize)  # the default sample_time
+        self.input_names = [v.name for v in md.modelVariables if v.causality == "input"]
+        self.sensors = [f"r_{n}_std" for n in self.input_names]  # each input's noise std (tunable)
+        self.estimates = [
+            v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real" and v.name != "nis"
+        ]  # every estimate and standard deviation
+        self.estimate = self.estimates[0]  # S1: F; S2: F_N1
+        fixed = next(
+            v for v in md.modelVariables if v.causality == "parameter" and v.variability == "fixed" and v.type == "Real"
+        )
+        self.fixed = (fixed.name, float(fixed.start))  # S1: m1; S2: car_body_mass
         self.messages: list[tuple[int, str, str]] = []
         self.names: set[str] = set()  # instance names the messages came with
         self.fmu = FMU2Slave(
@@ -404,9 +429,12 @@ class Slave:
         return self.fmu.getReal([self.vr[k] for k in names])
 
     def inputs(self, z) -> None:
-        self.fmu.setReal([self.vr["z1_ddot"], self.vr["z2_ddot"]], [float(z[0]), float(z[1])])
+        """Sets every input, in the order of the model description."""
+        self.fmu.setReal([self.vr[n] for n in self.input_names], [float(x) for x in z])
 
-    def step(self, h: float = DT) -> None:
+    def step(self, h: float | None = None) -> None:
+        """fmi2DoStep by `h`, by default the default sample_time."""
+        h = self.dt if h is None else h
         self.fmu.doStep(currentCommunicationPoint=self.time, communicationStepSize=h)
         self.time += h
 
@@ -439,12 +467,11 @@ class Slave:
             del _SLAVES[self.key]
 
 
-@pytest.fixture
-def new_slave(unzipped, model_description):
-    """Makes instances (each its own FMU2Slave); frees them after the test."""
+def slaves(unzipped: Path, model_description):
+    """Makes instances of one FMU (each its own FMU2Slave); frees them after the test."""
     made: list[Slave] = []
 
-    def make(name: str = "s1", logging_on: bool = True) -> Slave:
+    def make(name: str = "slave", logging_on: bool = True) -> Slave:
         made.append(Slave(unzipped, model_description, name, logging_on))
         return made[-1]
 
@@ -453,8 +480,47 @@ def new_slave(unzipped, model_description):
         slave.free()
 
 
+@pytest.fixture
+def new_slave(unzipped, model_description):
+    """Instances of the S1 FMU."""
+    yield from slaves(unzipped, model_description)
+
+
 def sensor(table: S1Table) -> dict[str, float]:
     return {"r_z1_ddot_std": table.noise_std[0], "r_z2_ddot_std": table.noise_std[1]}
+
+
+@dataclass(frozen=True)
+class Case:
+    """One FMU and accelerations to drive it with: row k of `z` is measured at
+    k·sample_time (the default), by sensors of the noise `sensor`."""
+
+    unzipped: Path
+    model_description: object
+    z: np.ndarray
+    sensor: dict[str, float]
+
+
+@pytest.fixture(scope="module", params=list(FMUS))
+def case(request, fmu_dir, tmp_path_factory) -> Case:
+    """Each FMU in turn (test ids s1, s2): S1 with the study's table
+    (stiffness/random), S2 with a vehicle at rest (the sensors' noise only,
+    0.01 m/s²; a constant input would read as a stuck sensor)."""
+    fmu = packaged(fmu_dir, FMUS[request.param])
+    md = read_model_description(str(fmu))
+    unzipped = Path(extract(str(fmu), str(tmp_path_factory.mktemp(f"unzipped-{request.param}"))))
+    if request.param == "s1":
+        table = request.getfixturevalue("s1_table")
+        return Case(unzipped, md, table.z, sensor(table))
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    z = 0.01 * np.random.default_rng(5).standard_normal((1001, len(inputs)))
+    return Case(unzipped, md, z, {f"r_{n}_std": 0.01 for n in inputs})
+
+
+@pytest.fixture
+def case_slave(case):
+    """Instances of the case's FMU."""
+    yield from slaves(case.unzipped, case.model_description)
 
 
 BAD_STEP = 25  # the bad call comes after this many good steps
@@ -467,12 +533,12 @@ STEPS = 60
 BAD_CALLS = {
     "doStep before initialization": (
         "instantiated",
-        lambda s: s.fmu.doStep(0.0, DT),
+        lambda s: s.fmu.doStep(0.0, s.dt),
         "fmi2DoStep: illegal call sequence",
     ),
     "doStep in initialization mode": (
         "initialization",
-        lambda s: s.fmu.doStep(0.0, DT),
+        lambda s: s.fmu.doStep(0.0, s.dt),
         "fmi2DoStep: illegal call sequence",
     ),
     "exitInitializationMode before entering it": (
@@ -482,7 +548,7 @@ BAD_CALLS = {
     ),
     "getReal before initialization mode": (
         "instantiated",
-        lambda s: s.get("F"),
+        lambda s: s.get(s.estimate),
         "fmi2GetReal: illegal call sequence",
     ),
     "exitInitializationMode twice": (
@@ -502,54 +568,55 @@ BAD_CALLS = {
     ),
     "setReal on a fixed parameter after initialization": (
         "stepping",
-        lambda s: s.set(m1=5.0),
+        lambda s: s.set(**{s.fixed[0]: 5.0}),
         "is a fixed parameter",
     ),
-    "setReal on an output": ("stepping", lambda s: s.set(F=1.0), "is an output and cannot be set"),
+    "setReal on an output": ("stepping", lambda s: s.set(**{s.estimate: 1.0}), "is an output and cannot be set"),
     "setReal on an output in initialization mode": (
         "initialization",
-        lambda s: s.set(F=1.0),
+        lambda s: s.set(**{s.estimate: 1.0}),
         "is an output and cannot be set",
     ),
     "setReal on an input and an output at once (all or nothing)": (
         "stepping",
-        lambda s: s.set(z1_ddot=1e3, F=1.0),
+        lambda s: s.set(**{s.input_names[0]: 1e3, s.estimate: 1.0}),
         "is an output and cannot be set",
     ),
     "setReal of a tunable parameter out of its bounds": (
         "stepping",
-        lambda s: s.set(r_z2_ddot_std=-1.0),
+        lambda s: s.set(**{s.sensors[-1]: -1.0}),
         "is outside [0",
     ),
     "getReal with an unknown value reference": (
         "stepping",
-        lambda s: s.fmu.getReal([s.vr["F"], 100_000]),
+        lambda s: s.fmu.getReal([s.vr[s.estimate], 100_000]),
         "unknown value reference 100000",
     ),
     "doStep at a wrong communication point": (
         "stepping",
-        lambda s: s.fmu.doStep(s.time + DT, DT),
+        lambda s: s.fmu.doStep(s.time + s.dt, s.dt),
         "does not match the FMU time",
     ),
     "doStep with a zero step": ("stepping", lambda s: s.fmu.doStep(s.time, 0.0), "must be positive"),
-    "doStep with a negative step": ("stepping", lambda s: s.fmu.doStep(s.time, -DT), "must be positive"),
+    "doStep with a negative step": ("stepping", lambda s: s.fmu.doStep(s.time, -s.dt), "must be positive"),
     "doStep with a NaN step": ("stepping", lambda s: s.fmu.doStep(s.time, math.nan), "must be positive"),
 }
 
 
-def drive(slave: Slave, table: S1Table, bad=None) -> list[tuple[float, ...]]:
+def drive(slave: Slave, case: Case, bad=None) -> list[tuple[float, ...]]:
     """The standard run (sensor noise set in initialization mode, STEPS rows of
-    the table), with the bad call `bad(phase)` hooked into every phase."""
+    the case's accelerations), with the bad call `bad(phase)` hooked into every
+    phase."""
     bad = bad or (lambda phase: None)
     slave.fmu.setupExperiment(startTime=0.0)
     bad("instantiated")
     slave.fmu.enterInitializationMode()
-    slave.set(**sensor(table))
+    slave.set(**case.sensor)
     bad("initialization")
     slave.fmu.exitInitializationMode()
     out = []
     for k in range(STEPS):
-        slave.inputs(table.z[k])
+        slave.inputs(case.z[k])
         if k == BAD_STEP:
             bad("stepping")
         slave.step()
@@ -558,18 +625,18 @@ def drive(slave: Slave, table: S1Table, bad=None) -> list[tuple[float, ...]]:
 
 
 @pytest.fixture
-def clean_run(new_slave, s1_table):
-    return drive(new_slave("clean"), s1_table)
+def clean_run(case_slave, case):
+    return drive(case_slave("clean"), case)
 
 
-@pytest.mark.parametrize("case", list(BAD_CALLS))
-def test_an_illegal_call_is_refused_and_changes_nothing(case, new_slave, s1_table, clean_run):
+@pytest.mark.parametrize("bad_call", list(BAD_CALLS))
+def test_an_illegal_call_is_refused_and_changes_nothing(bad_call, case_slave, case, clean_run):
     """Each illegal call returns fmi2Error (fmpy raises), logs why — the order
     errors as "illegal call sequence" — and leaves the instance as it was: it
     then steps on and gives exactly the outputs of an instance that never saw
-    the call."""
-    phase, call, message = BAD_CALLS[case]
-    slave = new_slave("bad")
+    the call, and its fixed and tunable parameters read what was set."""
+    phase, call, message = BAD_CALLS[bad_call]
+    slave = case_slave("bad")
     seen = []
 
     def bad(now):
@@ -579,30 +646,32 @@ def test_an_illegal_call_is_refused_and_changes_nothing(case, new_slave, s1_tabl
             assert raised.value.status == fmi2Error
             seen.append(now)
 
-    assert drive(slave, s1_table, bad) == clean_run
+    assert drive(slave, case, bad) == clean_run
     assert seen == [phase]
     errors = slave.errors()
     assert len(errors) == 1 and message in errors[0], errors
     assert ("illegal call sequence" in errors[0]) == ("illegal call sequence" in message)
-    assert slave.get("m1", "r_z2_ddot_std") == [4.0, s1_table.noise_std[1]]
+    (fixed, default), sensor_std = slave.fixed, slave.sensors[-1]
+    assert slave.get(fixed, sensor_std) == [default, case.sensor[sensor_std]]
 
 
-def test_interleaved_instances_are_independent(new_slave, s1_table):
+def test_interleaved_instances_are_independent(case_slave, case):
     """Two instances with different inputs and noise, stepped alternately, give
     exactly what each gives when run alone."""
-    za, zb = s1_table.z[:150], -0.5 * s1_table.z[300:450]
-    a_alone = new_slave("a-alone")
-    a_alone.initialize(**sensor(s1_table))
+    za, zb = case.z[:150], -0.5 * case.z[300:450]
+    noisier = {name: 2.5 * std for name, std in case.sensor.items()}
+    a_alone = case_slave("a-alone")
+    a_alone.initialize(**case.sensor)
     expected_a = a_alone.run(za)
-    b_alone = new_slave("b-alone")
-    b_alone.initialize(r_z1_ddot_std=0.02, r_z2_ddot_std=0.05)
+    b_alone = case_slave("b-alone")
+    b_alone.initialize(**noisier)
     expected_b = b_alone.run(zb)
     a_alone.free()
     b_alone.free()
 
-    a, b = new_slave("a"), new_slave("b")
-    a.initialize(**sensor(s1_table))
-    b.initialize(r_z1_ddot_std=0.02, r_z2_ddot_std=0.05)
+    a, b = case_slave("a"), case_slave("b")
+    a.initialize(**case.sensor)
+    b.initialize(**noisier)
     got_a, got_b = [], []
     for za_k, zb_k in zip(za, zb):
         got_a += a.run([za_k])
@@ -613,95 +682,193 @@ def test_interleaved_instances_are_independent(new_slave, s1_table):
     assert a.names == {"a"} and b.names == {"b"}  # each logs as itself
 
 
-def test_get_and_set_fmu_state_roll_back_exactly(new_slave, s1_table):
+def test_get_and_set_fmu_state_roll_back_exactly(case_slave, case):
     """Run 200 steps, save the state, run 200 more, restore, run the same 200
     again: the outputs are identical (==), and so is the time."""
-    slave = new_slave()
-    slave.initialize(**sensor(s1_table))
-    slave.run(s1_table.z[:200])
+    slave = case_slave()
+    slave.initialize(**case.sensor)
+    slave.run(case.z[:200])
     state = slave.fmu.getFMUstate()
     saved_time = slave.time
-    first = slave.run(s1_table.z[200:400])
+    first = slave.run(case.z[200:400])
     slave.fmu.setFMUstate(state)
     slave.time = saved_time
-    again = slave.run(s1_table.z[200:400])
+    again = slave.run(case.z[200:400])
     assert again == first
     slave.fmu.freeFMUstate(state)
     assert not slave.errors()
 
 
-def test_a_serialized_state_continues_identically_in_a_new_instance(new_slave, s1_table):
+def test_a_serialized_state_continues_identically_in_a_new_instance(case_slave, case):
     """A state serialized after 200 steps, de-serialized into a freshly
     instantiated instance (still in Instantiated) and set there, continues
     exactly as the original does — parameters included."""
-    original = new_slave("original")
-    original.initialize(**sensor(s1_table))
-    original.run(s1_table.z[:200])
+    original = case_slave("original")
+    original.initialize(**case.sensor)
+    original.run(case.z[:200])
     state = original.fmu.getFMUstate()
     data = original.fmu.serializeFMUstate(state)
     original.fmu.freeFMUstate(state)
     assert data.startswith(b"KALFMUS\0")
-    expected = original.run(s1_table.z[200:400])
+    expected = original.run(case.z[200:400])
 
-    fresh = new_slave("fresh")  # only instantiated: default noise, time 0
+    fresh = case_slave("fresh")  # only instantiated: default noise, time 0
     restored = fresh.fmu.deSerializeFMUstate(data)
     fresh.fmu.setFMUstate(restored)
     fresh.fmu.freeFMUstate(restored)
-    fresh.time = 200 * DT
-    assert fresh.get("r_z1_ddot_std", "r_z2_ddot_std") == list(s1_table.noise_std)
-    assert fresh.run(s1_table.z[200:400]) == expected
+    fresh.time = 200 * fresh.dt
+    assert fresh.get(*case.sensor) == list(case.sensor.values())
+    assert fresh.run(case.z[200:400]) == expected
     assert not fresh.errors()
 
 
-def test_nan_inputs_are_skipped_counted_and_never_reach_the_outputs(new_slave, s1_table, defaults, scenarios_bin):
+def with_gaps(z: np.ndarray) -> np.ndarray:
+    """The first 120 rows of `z` with the first input missing in rows 10-19,
+    the second in rows 40-44, and every input in rows 60-69."""
+    z = z[:120].copy()
+    z[10:20, 0] = np.nan
+    z[40:45, 1] = np.nan
+    z[60:70, :] = np.nan  # every input: prediction only
+    return z
+
+
+def test_nan_inputs_are_skipped_counted_and_never_reach_the_outputs(case_slave, case):
     """NaN inputs leave their rows out of the update: they are counted in
-    skipped_measurements, reported once per input, every output stays finite,
-    filter_healthy stays true, and the estimates are the library's with those
-    values missing."""
-    z = s1_table.z[:120].copy()
-    z[10:20, 0] = np.nan  # z1_ddot missing
-    z[40:45, 1] = np.nan  # z2_ddot missing
-    z[60:70, :] = np.nan  # both: prediction only
-    slave = new_slave()
-    slave.initialize(**sensor(s1_table), **SAME_LAW)
+    skipped_measurements, reported once per input (in the order they went
+    missing), every output stays finite, filter_healthy stays true, and a
+    stretch without any input loses information (the first estimate's
+    standard deviation grows through it)."""
+    z = with_gaps(case.z)
+    slave = case_slave()
+    slave.initialize(**case.sensor)
     out = np.array(slave.run(z))
     assert np.all(np.isfinite(out))
     skipped, healthy = out[:, -2], out[:, -1]
     assert list(skipped) == list(np.cumsum(np.isnan(z).sum(axis=1)))
-    assert skipped[-1] == 10 + 5 + 20
+    assert skipped[-1] == 10 + 5 + 10 * len(slave.input_names)
     assert np.all(healthy == 1)
     assert slave.fmu.getBoolean([slave.vr["filter_healthy"]]) == [1]
-    # A prediction-only stretch loses information on the load.
-    f_std = out[:, slave.real_outputs.index(slave.vr["F_std"])]
-    assert np.all(np.diff(f_std[60:70]) > 0)
+    std = out[:, slave.real_outputs.index(slave.vr[f"{slave.estimate}_std"])]
+    assert np.all(np.diff(std[60:70]) > 0)
     missing = [m for m in slave.warnings() if "treated as missing" in m]
-    assert len(missing) == 2 and "z1_ddot" in missing[0] and "z2_ddot" in missing[1], missing
+    assert [m.split()[1] for m in missing] == slave.input_names, missing
 
+
+def test_a_tunable_parameter_changes_between_steps_a_fixed_one_does_not(case_slave, case):
+    """The sensors' noise (tunable) can be set between steps and acts from the
+    next step on (noisier sensors: a wider first estimate than without the
+    change); the first fixed parameter (S1 m1, S2 car_body_mass) is refused
+    there and keeps its value."""
+    baseline, tuned = case_slave("baseline"), case_slave("tuned")
+    for slave in (baseline, tuned):
+        slave.initialize(**case.sensor)
+    assert baseline.run(case.z[:100]) == tuned.run(case.z[:100])
+
+    noisier = {name: 10 * std for name, std in case.sensor.items()}
+    tuned.set(**noisier)
+    assert tuned.get(*noisier) == list(noisier.values())
+    fixed, default = tuned.fixed
+    with pytest.raises(FMICallException):
+        tuned.set(**{fixed: 1.25 * default})
+    assert tuned.get(fixed) == [default]
+    assert any("fixed parameter" in m for m in tuned.errors())
+
+    std = baseline.real_outputs.index(baseline.vr[f"{baseline.estimate}_std"])
+    after_base = baseline.run(case.z[100:150])
+    after_tuned = tuned.run(case.z[100:150])
+    assert all(t[std] > b[std] for b, t in zip(after_base, after_tuned))
+
+
+def test_a_measurement_enters_once_however_often_the_inputs_are_set_and_read(case_slave, case):
+    """Reads change nothing, and inputs set again before the step replace the
+    earlier ones: an instance that reads several times, and first sets wrong
+    inputs (read with them) before the right ones, gives exactly the outputs
+    of one that sets the right inputs once."""
+    plain, busy = case_slave("plain"), case_slave("busy")
+    for slave in (plain, busy):
+        slave.initialize(**case.sensor)
+    expected = plain.run(case.z[:50])
+    got = []
+    for z in case.z[:50]:
+        busy.inputs(-3.0 * z)
+        wrong = busy.outputs()
+        busy.inputs(z)
+        got.append(busy.outputs())
+        assert got[-1] != wrong
+        assert busy.outputs() == got[-1]
+        busy.step()
+        busy.outputs()
+    assert got == expected
+
+
+def test_a_step_of_several_samples_predicts_through_the_samples_inside_it(case_slave, case):
+    """A communication step of 4·sample_time updates at its start and predicts
+    through the three samples inside it (a held input is not a new
+    measurement): its estimates equal those of four steps of sample_time whose
+    later three have no input (NaN). No warning is logged."""
+    coarse, fine = case_slave("coarse"), case_slave("fine")
+    for slave in (coarse, fine):
+        slave.initialize(**case.sensor)
+    missing = [math.nan] * len(coarse.input_names)
+    for k in range(0, 80, 4):
+        z = case.z[k]
+        coarse.inputs(z)
+        coarse.step(4 * coarse.dt)
+        fine.inputs(z)
+        fine.step()
+        for _ in range(3):
+            fine.inputs(missing)
+            fine.step()
+        assert coarse.get(*coarse.estimates) == fine.get(*fine.estimates), k
+    assert not coarse.warnings() and not coarse.errors()
+
+
+def test_a_step_between_samples_warns_once_and_reads_the_prediction_to_its_end(case_slave, case):
+    """A step that ends between two samples returns OK, logs the documented
+    warning (once) and reads the prediction to its end: the first estimate's
+    standard deviation lies between those at the samples around it. Stepping
+    back onto the grid continues the same filter: the estimates equal an
+    instance stepping by sample_time (without an input at the sample the odd
+    step skipped)."""
+    odd, even = case_slave("odd"), case_slave("even")
+    for slave in (odd, even):
+        slave.initialize(**case.sensor)
+        slave.inputs(case.z[0])
+    std, dt = f"{odd.estimate}_std", odd.dt
+    even.step()
+    std_at_1 = even.get(std)[0]
+    even.inputs([math.nan] * len(even.input_names))
+    even.step()
+    std_at_2 = even.get(std)[0]
+
+    odd.step(1.5 * dt)  # the first sample is inside the step: a prediction
+    assert std_at_1 < odd.get(std)[0] < std_at_2
+    odd.step(0.5 * dt)  # back on the grid at the second sample
+    assert odd.get(*odd.estimates) == even.get(*even.estimates)
+    odd.step(0.25 * dt)  # off the grid again: no second warning
+    warnings = odd.warnings()
+    assert len(warnings) == 1, warnings
+    assert "not a sample instant" in warnings[0] and "reported once" in warnings[0]
+    assert not [w for w in even.warnings() if "sample instant" in w]
+
+
+# --------------------------------------------------------------------------
+# Step by step with FMU2Slave: S1 against the library run in-process.
+# --------------------------------------------------------------------------
+
+
+def test_with_nan_inputs_the_estimates_are_the_library_s_with_those_values_missing(
+    new_slave, s1_table, defaults, scenarios_bin
+):
+    """The estimates of S1 with the gaps of `with_gaps` are the library's
+    SRCKF with those values missing, bit for bit."""
+    z = with_gaps(s1_table.z)
+    slave = new_slave()
+    slave.initialize(**sensor(s1_table), **SAME_LAW)
+    out = np.array(slave.run(z))
     ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, z)
     for i, name in enumerate(STATES):
         assert np.array_equal(out[:, slave.real_outputs.index(slave.vr[name])], ref["means"][:, i]), name
-
-
-def test_a_tunable_parameter_changes_between_steps_a_fixed_one_does_not(new_slave, s1_table):
-    """r_z2_ddot_std (tunable) can be set between steps and acts from the next
-    step on (a noisier sensor: a wider load estimate than without the change);
-    m1 (fixed) is refused there and keeps its value."""
-    baseline, tuned = new_slave("baseline"), new_slave("tuned")
-    for slave in (baseline, tuned):
-        slave.initialize(**sensor(s1_table))
-    assert baseline.run(s1_table.z[:100]) == tuned.run(s1_table.z[:100])
-
-    tuned.set(r_z2_ddot_std=10 * s1_table.noise_std[1])
-    assert tuned.get("r_z2_ddot_std") == [10 * s1_table.noise_std[1]]
-    with pytest.raises(FMICallException):
-        tuned.set(m1=5.0)
-    assert tuned.get("m1") == [4.0]
-    assert any("fixed parameter" in m for m in tuned.errors())
-
-    f_std = baseline.real_outputs.index(baseline.vr["F_std"])
-    after_base = baseline.run(s1_table.z[100:150])
-    after_tuned = tuned.run(s1_table.z[100:150])
-    assert all(t[f_std] > b[f_std] for b, t in zip(after_base, after_tuned))
 
 
 def test_reads_after_the_inputs_are_the_library_estimates_and_after_the_step_its_predictions(
@@ -724,27 +891,6 @@ def test_reads_after_the_inputs_are_the_library_estimates_and_after_the_step_its
         assert np.array_equal(after[:, column[f"{name}_std"]], ref["predicted_std"][1:, i]), name
     after_1s = s1_table.time[:n] >= 1.0
     assert np.corrcoef(at[after_1s, column["F"]], s1_table.load[:n][after_1s])[0, 1] >= 0.9995
-
-
-def test_a_measurement_enters_once_however_often_the_inputs_are_set_and_read(new_slave, s1_table):
-    """Reads change nothing, and inputs set again before the step replace the
-    earlier ones: an instance that reads several times, and first sets wrong
-    inputs (read with them) before the right ones, gives exactly the outputs
-    of one that sets the right inputs once."""
-    plain, busy = new_slave("plain"), new_slave("busy")
-    for slave in (plain, busy):
-        slave.initialize(**sensor(s1_table))
-    expected = plain.run(s1_table.z[:50])
-    got = []
-    for z in s1_table.z[:50]:
-        busy.inputs(-3.0 * z)
-        busy.outputs()
-        busy.inputs(z)
-        got.append(busy.outputs())
-        assert busy.outputs() == got[-1]
-        busy.step()
-        busy.outputs()
-    assert got == expected
 
 
 def test_the_gauss_seidel_timing_takes_the_inputs_as_measured_at_the_step_end(
@@ -771,56 +917,6 @@ def test_the_gauss_seidel_timing_takes_the_inputs_as_measured_at_the_step_end(
     got = np.array(got)
     for i, name in enumerate(STATES):
         assert np.array_equal(got[:, slave.real_outputs.index(slave.vr[name])], ref["means"][:, i]), name
-
-
-def test_a_step_of_several_samples_predicts_through_the_samples_inside_it(new_slave, s1_table):
-    """A communication step of 4·sample_time updates at its start and predicts
-    through the three samples inside it (a held input is not a new
-    measurement): its estimates equal those of four steps of sample_time whose
-    later three have no input (NaN). No warning is logged."""
-    estimates = STATES + [f"{s}_std" for s in STATES]
-    coarse, fine = new_slave("coarse"), new_slave("fine")
-    for slave in (coarse, fine):
-        slave.initialize(**sensor(s1_table))
-    for k in range(0, 80, 4):
-        z = s1_table.z[k]
-        coarse.inputs(z)
-        coarse.step(4 * DT)
-        fine.inputs(z)
-        fine.step(DT)
-        for _ in range(3):
-            fine.inputs([math.nan, math.nan])
-            fine.step(DT)
-        assert coarse.get(*estimates) == fine.get(*estimates), k
-    assert not coarse.warnings() and not coarse.errors()
-
-
-def test_a_step_between_samples_warns_once_and_reads_the_prediction_to_its_end(new_slave, s1_table):
-    """A step that ends between two samples returns OK, logs the documented
-    warning (once) and reads the prediction to its end: its F_std lies between
-    those at the samples around it. Stepping back onto the grid continues the
-    same filter: the estimates equal an instance stepping by sample_time
-    (without an input at the sample the odd step skipped)."""
-    odd, even = new_slave("odd"), new_slave("even")
-    for slave in (odd, even):
-        slave.initialize(**sensor(s1_table))
-        slave.inputs(s1_table.z[0])
-    even.step(DT)
-    std_at_1 = even.get("F_std")[0]
-    even.inputs([math.nan, math.nan])
-    even.step(DT)
-    std_at_2 = even.get("F_std")[0]
-
-    odd.step(1.5 * DT)  # the sample at 0.005 is inside the step: a prediction
-    assert std_at_1 < odd.get("F_std")[0] < std_at_2
-    odd.step(0.5 * DT)  # back on the grid at 0.010
-    estimates = STATES + [f"{s}_std" for s in STATES]
-    assert odd.get(*estimates) == even.get(*estimates)
-    odd.step(0.25 * DT)  # off the grid again: no second warning
-    warnings = odd.warnings()
-    assert len(warnings) == 1, warnings
-    assert "not a sample instant" in warnings[0] and "reported once" in warnings[0]
-    assert not [w for w in even.warnings() if "sample instant" in w]
 
 
 # --------------------------------------------------------------------------
