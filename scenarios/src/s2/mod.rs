@@ -8,11 +8,13 @@
 //!   ([`parameters`]).
 //! - The study ([`study`]): its cases, the car as built against the user's catalogue
 //!   vehicle, the sampled and noisy measurements, the tuning, a filter run in-process and
-//!   its score; the estimation model is `estimator::models::WheelRailVertical`.
+//!   its score, the accelerations sampled as a data acquisition does ([`daq`]); the
+//!   estimation model is `estimator::models::WheelRailVertical`.
 //! - Through the packaged FMU `kalfmu_s2_wheel_rail` ([`fmu_run`]): `reproduce`'s table
 //!   ([`reproduce`]).
 //! - The robustness sweep, in-process on both cores ([`sweep`]).
 
+pub mod daq;
 pub mod fmu_run;
 pub mod irregularity;
 pub mod parameters;
