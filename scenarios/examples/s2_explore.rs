@@ -1,4 +1,4 @@
-//! A first probe of S2, before the study's command exists (issue 19): each case simulated
+//! A tuning probe of S2, in-process and quick: each case simulated
 //! on the as-built car (`s2::study`), sampled at RATE Hz with 2 % sensor noise, and the
 //! SRCKF on the user's 24-state model with the study's tuning, its force intensity set to
 //! Q_INTENSITY (N²/s). Prints, per case and wheel, the correlation, the RMSE after 0.5 s and
