@@ -2,9 +2,11 @@
 //!
 //! For a symmetric `P` this *is* the singular value decomposition the SVD-CKF
 //! asks for: `P = U·Σ·Vᵀ` with `U` the eigenvectors and `Σ = |Λ|` (a negative
-//! eigenvalue moves its sign into `V`). Jacobi is chosen because it is accurate
-//! to working precision on small eigenvalues, which is exactly where a
-//! covariance goes wrong, and because it runs in buffers allocated once.
+//! eigenvalue moves its sign into `V`). Jacobi is chosen because, with a
+//! stopping test relative to each pair's own diagonal (Demmel & Veselić, SIAM J.
+//! Matrix Anal. Appl. 13(4), 1992), it is accurate to working precision on
+//! small eigenvalues, which is exactly where a covariance goes wrong, and
+//! because it runs in buffers allocated once.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -53,18 +55,26 @@ impl SymmetricEigen {
             return Err(NotConverged);
         }
         for _ in 0..MAX_SWEEPS {
-            let off: f64 = (0..n).flat_map(|j| (0..j).map(move |i| (i, j))).map(|(i, j)| self.a[(i, j)].powi(2)).sum();
-            let diag: f64 = (0..n).map(|i| self.a[(i, i)].powi(2)).sum();
-            if off <= (f64::EPSILON * f64::EPSILON) * diag || off == 0.0 {
+            // Demmel & Veselić's criterion: a pair is negligible when small against the
+            // geometric mean of its own diagonal entries, not against the whole matrix.
+            // With it the small eigenvalues of a graded covariance (variances from 1e-10
+            // to 1e10 in S2) come out to working precision relative to themselves; against
+            // the matrix norm they were left with absolute errors of eps·‖P‖.
+            let mut rotated = false;
+            for q in 1..n {
+                for p in 0..q {
+                    let apq = self.a[(p, q)];
+                    if apq != 0.0 && apq.abs() > f64::EPSILON * (self.a[(p, p)] * self.a[(q, q)]).abs().sqrt() {
+                        self.rotate(p, q);
+                        rotated = true;
+                    }
+                }
+            }
+            if !rotated {
                 for i in 0..n {
                     self.values[i] = self.a[(i, i)];
                 }
                 return Ok(());
-            }
-            for q in 1..n {
-                for p in 0..q {
-                    self.rotate(p, q);
-                }
             }
         }
         Err(NotConverged)
@@ -161,6 +171,35 @@ mod tests {
         let mut r = DMatrix::zeros(4, 4);
         e.write_svd_square_root(&mut r);
         assert!((&r * r.transpose() - &p).norm() < 1e-12 * p.norm());
+    }
+
+    #[test]
+    fn a_graded_covariance_is_rebuilt_to_working_precision_entry_by_entry() {
+        // P = D·C·D: a well-conditioned correlation C, scales D from 1e-5 to 1e5, as S2's
+        // covariance has them (positions against forces). Every entry, the smallest ones
+        // too, must come back to rounding relative to its own scale √(P_ii·P_jj).
+        let n = 12;
+        let c =
+            DMatrix::from_fn(n, n, |i, j| if i == j { 1.0 } else { 0.3 * (((i * 7 + j * 7) % 5) as f64 - 2.0) / 4.0 });
+        let d: Vec<f64> = (0..n).map(|i| 10f64.powf(-5.0 + 10.0 * i as f64 / (n - 1) as f64)).collect();
+        let p = DMatrix::from_fn(n, n, |i, j| d[i] * c[(i, j)] * d[j]);
+        assert!(p.clone().cholesky().is_some(), "the test matrix is positive definite");
+        let mut e = SymmetricEigen::new(n);
+        e.decompose(&p).unwrap();
+        let mut r = DMatrix::zeros(n, n);
+        e.write_svd_square_root(&mut r);
+        let rebuilt = &r * r.transpose();
+        for i in 0..n {
+            for j in 0..n {
+                let scale = (p[(i, i)] * p[(j, j)]).sqrt();
+                let error = (rebuilt[(i, j)] - p[(i, j)]).abs() / scale;
+                assert!(error < 1e-12, "P[{i}, {j}] = {:e} rebuilt with relative error {error:e}", p[(i, j)]);
+            }
+        }
+        // The smallest eigenvalue to working precision: that of the inverse's largest.
+        let inverse = p.clone().cholesky().unwrap().inverse();
+        let largest_of_inverse = inverse.symmetric_eigen().eigenvalues.iter().copied().fold(0.0, f64::max);
+        assert!((e.min_value() * largest_of_inverse - 1.0).abs() < 1e-9, "{:e}", e.min_value());
     }
 
     #[test]
