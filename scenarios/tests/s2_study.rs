@@ -83,10 +83,13 @@ fn the_sweep_prints_a_row_per_case_rate_speed_and_vehicle_and_shards_split_its_r
     };
     let whole = sweep("1/1");
     let rows: Vec<&str> = whole.lines().skip(2).collect();
-    assert_eq!(rows.len(), 9, "3 cases × (catalogue, m_c +10 %, K_p +10 %):\n{whole}");
+    assert_eq!(rows.len(), 15, "3 cases × (catalogue, m_c ∓10 %, K_p ∓10 %):\n{whole}");
+    for variant in ["catalogue", "m_c -10 %", "m_c +10 %", "K_p -10 %", "K_p +10 %"] {
+        assert_eq!(rows.iter().filter(|r| r.contains(variant)).count(), 3, "{variant}:\n{whole}");
+    }
     assert!(rows.iter().all(|r| r.contains(" 2 ")), "two seeds per row:\n{whole}");
-    // Two shards hold one seed each of every row (the 18 runs alternate).
+    // Two shards hold one seed each of every row (the 30 runs alternate).
     let half = sweep("1/2");
-    assert_eq!(half.lines().skip(2).count(), 9);
+    assert_eq!(half.lines().skip(2).count(), 15);
     assert!(half.lines().skip(2).all(|r| r.contains(" 1 ")), "{half}");
 }
