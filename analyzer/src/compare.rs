@@ -281,7 +281,7 @@ impl Comparison<'_> {
                 pair_name(p),
                 p.unit,
                 p.samples,
-                p.time.first().copied().unwrap_or(0.0),
+                p.compared_from,
                 p.time.last().copied().unwrap_or(0.0)
             );
             let best: Vec<Option<usize>> = COLUMNS.iter().map(|c| c.best(&pairs)).collect();

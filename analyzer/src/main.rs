@@ -55,6 +55,10 @@ struct ReportArgs {
     /// The channel of the estimates (e.g. /prediction: an FMU's outputs read right after each step).
     #[arg(long, default_value = analyzer::log::ESTIMATE)]
     estimate_topic: String,
+    /// Take the metrics, the ±2σ coverage and the spectra from this time (s) on, leaving a
+    /// filter's start-up out; the recording still shows the whole run.
+    #[arg(long)]
+    from: Option<f64>,
 }
 
 fn parse_pair(s: &str) -> Result<(String, String), String> {
@@ -87,6 +91,7 @@ fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
                 psd_segment: args.psd_segment,
                 pairs: args.pairs.clone(),
                 estimate_topic: args.estimate_topic.clone(),
+                from: args.from.unwrap_or(f64::NEG_INFINITY),
                 ..Options::default()
             };
             let comparison = compare_runs(&runs, &options)?;

@@ -31,6 +31,9 @@ pub struct Options {
     /// The channel of the estimates; default `/estimate` (`/prediction` holds
     /// an estimator FMU's outputs read right after each step).
     pub estimate_topic: String,
+    /// The time (s) from which the metrics, the ±2σ coverage and the spectra are taken
+    /// (a filter's start-up left out); the series stay whole. Default: the first sample.
+    pub from: f64,
 }
 
 impl Default for Options {
@@ -41,6 +44,7 @@ impl Default for Options {
             agreement_db: 3.0,
             pairs: Vec::new(),
             estimate_topic: ESTIMATE.to_string(),
+            from: f64::NEG_INFINITY,
         }
     }
 }
@@ -54,8 +58,10 @@ pub struct PairReport<'a> {
     pub estimate: String,
     /// Unit of both.
     pub unit: String,
-    /// Samples compared.
+    /// Samples compared (from [`Options::from`] on).
     pub samples: usize,
+    /// Time of the first sample compared (s).
+    pub compared_from: f64,
     /// The metrics.
     #[serde(flatten)]
     pub metrics: Metrics,
@@ -138,6 +144,14 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             w[0]
         )));
     }
+    let first = time.iter().position(|&t| t >= options.from).unwrap_or(time.len());
+    if time.len() - first < 4 {
+        return Err(fail(format!(
+            "only {} samples from t = {} s on, where the metrics start",
+            time.len() - first,
+            options.from
+        )));
+    }
     let mut reports = Vec::new();
     for (t_name, e_name) in pairs {
         let t_signal = truth.signal(&t_name).ok_or_else(|| fail(format!("{TRUTH} has no signal '{t_name}'")))?;
@@ -163,23 +177,20 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
         };
         let w = ((options.rmse_window / dt).round() as usize).max(1);
         let running_rmse = running_rmse(&truth_values, &estimate_values, w);
-        let metrics = compare_with_running_rmse(&truth_values, &estimate_values, &running_rmse, time[0], dt);
+        let (t, e) = (&truth_values[first..], &estimate_values[first..]);
+        let metrics = compare_with_running_rmse(t, e, &running_rmse[first..], time[first], dt);
         let two_sigma_coverage = sigma.as_ref().map(|s| {
-            let inside = truth_values
-                .iter()
-                .zip(estimate_values.iter())
-                .zip(s.iter())
-                .filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s)
-                .count();
-            inside as f64 / truth_values.len() as f64
+            let inside = t.iter().zip(e).zip(&s[first..]).filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s).count();
+            inside as f64 / t.len() as f64
         });
         let fs = 1.0 / dt;
-        let [truth_spectrum, estimate_spectrum] = welch_pair(&truth_values, &estimate_values, fs, options.psd_segment);
+        let [truth_spectrum, estimate_spectrum] = welch_pair(t, e, fs, options.psd_segment);
         reports.push(PairReport {
             truth: t_name,
             estimate: e_name,
             unit: t_signal.spec.unit.clone(),
-            samples: time.len(),
+            samples: time.len() - first,
+            compared_from: time[first],
             metrics,
             two_sigma_coverage,
             psd_agreement_band: agreement_band(&truth_spectrum, &estimate_spectrum, options.agreement_db),

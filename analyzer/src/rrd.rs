@@ -507,12 +507,12 @@ fn markdown(comparison: &Comparison) -> String {
         let p = pairs[0];
         let _ = writeln!(
             md,
-            "## {}\n\n{} samples, t = {} to {} s{}.\n",
+            "## {}\n\n{} samples compared, t = {} to {} s{}.\n",
             cell(&with_unit(&pair_name(p), &p.unit)),
             p.samples,
-            p.time.first().copied().unwrap_or(0.0),
+            p.compared_from,
             p.time.last().copied().unwrap_or(0.0),
-            envelope_note(p.samples)
+            envelope_note(p.time.len())
         );
         // A row per metric and a column per run: it fits the side panel.
         let _ = write!(md, "| metric |");
@@ -618,7 +618,7 @@ fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
         .map(|p| {
             let name = pair_name(p);
             let titled = with_unit(&name, &p.unit);
-            let note = envelope_note(p.samples);
+            let note = envelope_note(p.time.len());
             let bands = if p.sigma.is_some() { " ± 2σ" } else { "" };
             let psd_unit = if p.unit.is_empty() { "1/Hz".to_string() } else { format!("{}²/Hz", p.unit) };
             Vertical::new([

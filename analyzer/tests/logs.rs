@@ -71,6 +71,31 @@ fn the_report_pairs_by_name_and_measures_the_known_error() {
 }
 
 #[test]
+fn metrics_from_a_time_leave_the_start_up_out_and_keep_the_whole_series() {
+    // The first 2 s carry a start-up error of 5 N, far outside the 2σ = 0.2 band.
+    let path = temp("from.mcap");
+    write_run(&path, |k, _, estimate| {
+        if k < 200 {
+            *estimate += 5.0;
+        }
+    });
+    let run = read_log(&path).unwrap();
+    let whole = analyse(&run, &Options::default()).unwrap();
+    let settled = analyse(&run, &Options { from: 2.0, ..Options::default() }).unwrap();
+    let (w, s) = (&whole.pairs[0], &settled.pairs[0]);
+    assert!(w.metrics.rmse > 1.0 && w.two_sigma_coverage < Some(0.95), "{}", w.metrics.rmse);
+    assert_eq!((s.samples, s.compared_from), (1800, 2.0));
+    assert!(s.metrics.rmse < 0.05 && s.two_sigma_coverage == Some(1.0), "{}", s.metrics.rmse);
+    assert_eq!(
+        s.metrics.correlation,
+        analyzer::metrics::correlation(&s.truth_values[200..], &s.estimate_values[200..])
+    );
+    assert_eq!((s.time.len(), s.running_rmse.len()), (2000, 2000), "the series stay whole");
+    let late = analyse(&run, &Options { from: 19.98, ..Options::default() }).unwrap_err();
+    assert!(late.to_string().contains("only 2 samples from t = 19.98 s on"), "{late}");
+}
+
+#[test]
 fn an_explicit_pair_replaces_the_naming_rule_and_a_bad_pair_is_named() {
     let path = temp("pair.mcap");
     write_run(&path, |_, _, _| {});

@@ -5,7 +5,7 @@
 //! wheel.
 //!
 //! Definitions (the paper reports wheelset 1 only, and defines none of them):
-//! - every figure but the spectra is taken after a settling time of 0.5 s;
+//! - every figure is taken after a settling time of 0.5 s, in the recordings too;
 //! - **RMSE mean and variance**: of the running RMSE over a trailing 0.2 s window, the
 //!   curve the paper plots and summarises by its mean (kN) and variance (kN²);
 //! - **RMSE/σ_dyn**: the RMSE over the true force's standard deviation about its mean, its
@@ -23,7 +23,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use analyzer::log::{ESTIMATE, PREDICTION};
-use analyzer::metrics::{correlation, rmse};
 use analyzer::read::read_log;
 use analyzer::read::Run;
 use analyzer::report::{analyse, Options, PairReport};
@@ -67,30 +66,27 @@ struct WheelFigures {
 }
 
 impl WheelFigures {
+    /// From the analyzer's report of a pair, its metrics taken from [`SETTLE`] on.
     fn of(pair: &PairReport<'_>, rate: f64) -> Self {
-        let skip = ((SETTLE * rate).round() as usize).min(pair.truth_values.len().saturating_sub(2));
+        let skip = pair.time.len() - pair.samples;
         let (t, e) = (&pair.truth_values[skip..], &pair.estimate_values[skip..]);
         let n = t.len() as f64;
         let mean = t.iter().sum::<f64>() / n;
         let running = &pair.running_rmse[skip..];
         let running_mean = running.iter().sum::<f64>() / n;
-        let two_sigma = pair.sigma.as_ref().map_or(f64::NAN, |s| {
-            let s = &s[skip..];
-            t.iter().zip(e).zip(s).filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s).count() as f64 / n
-        });
         let peak = t.iter().enumerate().fold((0, f64::NEG_INFINITY), |b, (k, &v)| if v > b.1 { (k, v) } else { b });
         let reach = (PEAK_WINDOW * rate).round() as usize;
         let around = &e[peak.0.saturating_sub(reach)..(peak.0 + reach + 1).min(e.len())];
         let estimated_peak = around.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Self {
-            correlation: correlation(t, e),
-            rmse: rmse(t, e),
+            correlation: pair.metrics.correlation,
+            rmse: pair.metrics.rmse,
             running_rmse_mean: running_mean,
             running_rmse_var: running.iter().map(|r| (r - running_mean).powi(2)).sum::<f64>() / n,
             dynamic_std: (t.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt(),
             peak_error: (estimated_peak - peak.1) / (peak.1 - mean),
             band: pair.psd_agreement_band,
-            two_sigma,
+            two_sigma: pair.two_sigma_coverage.unwrap_or(f64::NAN),
         }
     }
 }
@@ -131,8 +127,13 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         "after {SETTLE} s: correlation; running RMSE ({RMSE_WINDOW} s window) mean and variance; RMSE over the true \
          force's dynamic σ; weld: peak dynamic force error; spectra within 3 dB; share of errors inside the FMU's ±2σ"
     );
-    let options =
-        Options { rmse_window: RMSE_WINDOW, psd_segment: settings.rate.round() as usize, ..Options::default() };
+    // The recordings' and the JSON's metrics are the table's: from the settling time on.
+    let options = Options {
+        rmse_window: RMSE_WINDOW,
+        psd_segment: settings.rate.round() as usize,
+        from: SETTLE,
+        ..Options::default()
+    };
     let mut srckf = String::new();
     let _ = writeln!(
         srckf,
