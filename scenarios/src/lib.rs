@@ -1,6 +1,7 @@
 //! Truth simulators and study runners. Depends on the estimation library for
 //! the physical laws and the filters; the filters never see the truth.
 
+pub mod cosimulation;
 pub mod export;
 pub mod fmu_driver;
 pub mod jobs;

@@ -1,22 +1,21 @@
-//! One S1 case through the packaged estimator FMU, driven as a co-simulation
-//! master drives it: at each sample instant `t` the truth simulator's noisy
-//! accelerations of `t` are set as the FMU's inputs, the outputs are read
-//! (the estimate at `t` given the measurements up to `t`, by direct
-//! feedthrough), `fmi2DoStep(t, dt)` is called, and the outputs are read
-//! again (the estimate at `t + dt` predicted from the measurements up to `t`).
-//! The run is logged in the kalfmu MCAP format (`docs/log-format.md`): the
-//! measurements, the truth, both readings (`/estimate`, `/prediction`).
+//! One S1 case through the packaged estimator FMU, driven as a co-simulation master
+//! drives it ([`crate::cosimulation`]): the chain and the study's tuning as parameters, the
+//! two noisy accelerations as inputs; the log has the true load and motion beside them.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
-use anyhow::Context;
+use analyzer::log::SignalSpec;
 use estimator::FilterKind;
 
 use super::plant::Truth;
 use super::{Case, Measurements, Settings, Tuning};
-use crate::fmu_driver::{filter_enumeration, ImportedFmu};
+use crate::cosimulation::{self, Setup};
+use crate::fmu_driver::ImportedFmu;
+
+/// The FMU's inputs, in the order of the measurement vector.
+const INPUTS: [(&str, &str); 2] =
+    [("z1_ddot", "measured acceleration of mass 1"), ("z2_ddot", "measured acceleration of mass 2")];
 
 /// The FMU's outputs that are logged on `/estimate`; those without `_std`
 /// have a namesake on `/truth`.
@@ -91,68 +90,40 @@ pub fn run(
     progress: &dyn Fn(),
 ) -> anyhow::Result<()> {
     let Simulated { case, settings, truth, measurements } = *sim;
-    let dt = settings.dt();
-    let instants = truth.time.len();
     let params = parameters(case, settings, measurements);
-    let mut instance = fmu.instantiate(
-        &format!("s1-{case}-{kind}"),
-        truth.time[0],
-        truth.time[instants - 1],
-        &params,
-        &[("filter", filter_enumeration(kind)), ("rk4_substeps", 1)],
-    )?;
-    let inputs = [fmu.vr("z1_ddot")?, fmu.vr("z2_ddot")?];
-    let outputs: Vec<u32> = OUTPUTS.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
-
-    let parameters_json =
-        serde_json::to_string(&params.iter().map(|(n, v)| (n.to_string(), *v)).collect::<BTreeMap<_, _>>())?;
+    let truth_names = ["F", "z1", "z2", "z1_dot", "z2_dot", "F_dot"];
+    let truth_specs: Vec<SignalSpec> =
+        truth_names.iter().map(|n| SignalSpec::new(n, &fmu.unit(n), "true value (truth simulator)")).collect();
     let metadata = BTreeMap::from([
         ("study".to_string(), "S1".to_string()),
         ("case".to_string(), case.to_string()),
         ("seed".to_string(), settings.seed.to_string()),
-        ("filter".to_string(), kind.name().to_string()),
         ("noise_fraction".to_string(), settings.noise_fraction.to_string()),
-        ("parameters".to_string(), parameters_json),
-        ("software".to_string(), format!("kalfmu {}", env!("CARGO_PKG_VERSION"))),
     ]);
-    let mut w = LogWriter::create(log, &metadata)?;
-    let unit = |n: &str| fmu.unit(n);
-    let ch_m = w.add_channel(
-        MEASUREMENTS,
-        &[
-            SignalSpec::new("z1_ddot", &unit("z1_ddot"), "measured acceleration of mass 1"),
-            SignalSpec::new("z2_ddot", &unit("z2_ddot"), "measured acceleration of mass 2"),
-        ],
+    let setup = Setup {
+        fmu,
+        filter: kind,
+        parameters: &params,
+        inputs: &INPUTS,
+        outputs: &OUTPUTS,
+        truth: &truth_specs,
+        metadata,
+    };
+    cosimulation::run(
+        &setup,
+        &truth.time,
+        settings.dt(),
+        |k| measurements.acceleration[k].to_vec(),
+        |k| {
+            let [z1, z2, v1, v2] = truth.motion[k];
+            vec![truth.load[k], z1, z2, v1, v2, truth.load_rate[k]]
+        },
+        log,
+        |k| {
+            if k % 1000 == 999 {
+                progress();
+            }
+        },
     )?;
-    let truth_names = ["F", "z1", "z2", "z1_dot", "z2_dot", "F_dot"];
-    let truth_specs: Vec<SignalSpec> =
-        truth_names.iter().map(|n| SignalSpec::new(n, &unit(n), "true value (truth simulator)")).collect();
-    let ch_t = w.add_channel(TRUTH, &truth_specs)?;
-    let specs =
-        |what: &str| -> Vec<SignalSpec> { OUTPUTS.iter().map(|n| SignalSpec::new(n, &unit(n), what)).collect() };
-    let ch_e = w.add_channel(ESTIMATE, &specs("FMU output read at t after the inputs of t were set"))?;
-    let ch_p = w.add_channel(PREDICTION, &specs("FMU output read right after fmi2DoStep(t - dt, dt)"))?;
-
-    let mut out = vec![0.0; outputs.len()];
-    for k in 0..instants {
-        let (t, z) = (truth.time[k], measurements.acceleration[k]);
-        let context = || format!("{case} {kind} at t = {t} s");
-        instance.set_inputs(&inputs, &z).with_context(context)?;
-        instance.read(&outputs, &mut out).with_context(context)?;
-        let [z1, z2, v1, v2] = truth.motion[k];
-        w.write(ch_m, t, &z)?;
-        w.write(ch_t, t, &[truth.load[k], z1, z2, v1, v2, truth.load_rate[k]])?;
-        w.write(ch_e, t, &out)?;
-        if k + 1 < instants {
-            instance.do_step(dt).with_context(context)?;
-            instance.read(&outputs, &mut out).with_context(context)?;
-            w.write(ch_p, truth.time[k + 1], &out)?;
-        }
-        if k % 1000 == 999 {
-            progress();
-        }
-    }
-    instance.terminate()?;
-    w.finish()?;
     Ok(())
 }

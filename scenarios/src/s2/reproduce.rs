@@ -29,9 +29,10 @@ use analyzer::report::{analyse, Options, PairReport};
 use anyhow::Context;
 use estimator::FilterKind;
 
-use super::fmu_run::{self, Counts, Simulated, IDENTIFIER};
+use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::parameters::Vehicle;
 use super::study::{as_built, measure, run_filter, simulate, user_vehicle, Case, Settings, Tuning};
+use crate::cosimulation::Counts;
 use crate::fmu_driver::ImportedFmu;
 use crate::reproduce::{compare_case, log_path};
 
