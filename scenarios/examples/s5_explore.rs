@@ -59,7 +59,7 @@ fn main() {
     let before = (10.0 / settings.sample_time) as usize - 1;
     for kind in FilterKind::ALL {
         let started = std::time::Instant::now();
-        let e = match run_filter(kind, &tuning, &truth, &z, settings.sample_time) {
+        let e = match run_filter(kind, &tuning, &truth, &z, settings.sample_time, &[]) {
             Ok(e) => e,
             Err(e) => {
                 println!("{kind}: failed: {e}");

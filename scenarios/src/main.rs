@@ -5,6 +5,7 @@
 //!   scenarios s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
 //!   scenarios s1-faults [--case stiffness/random] [--shard K/N]
 //!   scenarios s2-sweep [--speeds 40,80,120,160] [--errors 0.05,0.1] [--rates 200,1000] [--seeds 3] [--shard K/N]
+//!   scenarios s5-monte-carlo [--runs 100] [--filters SVD-CKF,CKF] [--shard K/N]
 //!   scenarios replay < spec.json > estimates.json
 //!   scenarios s1-export --case stiffness/random [--duration 60] [--seed 1] [--noise 0.02] --out s1.csv
 
@@ -29,6 +30,8 @@ enum Command {
     S1Faults(scenarios::s1_faults::Args),
     /// Study S2 across speeds, vehicle-parameter errors, sampling rates and track seeds.
     S2Sweep(scenarios::s2::sweep::Args),
+    /// Study S5's filters over many noise seeds: error spread, consistency, Cramér–Rao.
+    S5MonteCarlo(scenarios::s5::monte_carlo::Args),
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
     /// Write the noisy accelerations and the true load of one S1 case as CSV (an FMU input table).
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
         Command::S1Sweep(args) => scenarios::sweep::run(args),
         Command::S1Faults(args) => scenarios::s1_faults::run_command(args),
         Command::S2Sweep(args) => scenarios::s2::sweep::run(args),
+        Command::S5MonteCarlo(args) => scenarios::s5::monte_carlo::run(args),
         Command::Replay(args) => scenarios::replay::run(args),
         Command::S1Export(args) => scenarios::export::run(args),
     };

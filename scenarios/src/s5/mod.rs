@@ -10,6 +10,7 @@
 
 pub mod excitation;
 pub mod manoeuvre;
+pub mod monte_carlo;
 pub mod parameters;
 pub mod plant;
 pub mod study;

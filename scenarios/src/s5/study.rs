@@ -161,16 +161,20 @@ pub struct Estimates {
     pub std: Vec<[f64; 10]>,
     /// Measurement rows the supervisor's gate left out.
     pub rejected: u64,
+    /// The coefficients' covariance at the samples asked for (`checkpoints`).
+    pub covariance_at: Vec<(usize, nalgebra::DMatrix<f64>)>,
 }
 
 /// Runs the filter of `kind` (RK4 once per sample) over `measurements`, behind the
-/// supervisor with its default settings, as the FMU runs it.
+/// supervisor with its default settings, as the FMU runs it; keeps the coefficients'
+/// covariance at the samples `checkpoints`.
 pub fn run_filter(
     kind: estimator::FilterKind,
     tuning: &Tuning,
     truth: &Truth,
     measurements: &[[f64; 12]],
     sample_time: f64,
+    checkpoints: &[usize],
 ) -> Result<Estimates, String> {
     let model = estimator::Discretized::rk4(Missile6Dof { airframe: Airframe::tactical_missile() }, 1);
     let unscented = estimator::UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
@@ -189,6 +193,9 @@ pub fn run_filter(
         let c = Missile6Dof::COEFFICIENTS;
         estimates.coefficients.push(std::array::from_fn(|i| filter.mean()[c + i]));
         estimates.std.push(std::array::from_fn(|i| filter.variance(c + i).max(0.0).sqrt()));
+        if checkpoints.contains(&k) {
+            estimates.covariance_at.push((k, filter.covariance().view((c, c), (10, 10)).into_owned()));
+        }
     }
     estimates.rejected = supervisor.rejected();
     Ok(estimates)

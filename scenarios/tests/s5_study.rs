@@ -1,0 +1,47 @@
+//! The S5 study: the SRCKF on the 20-state model identifies every coefficient of the
+//! paper's missile before and after the change, and comes back quickly; the Monte Carlo
+//! command prints its tables and splits its runs between shards.
+
+use estimator::FilterKind;
+use scenarios::s5::parameters::{AFTER, BEFORE, NAMES};
+use scenarios::s5::study::{measure, run_filter, simulate, Settings, Tuning};
+
+#[test]
+fn the_srckf_identifies_every_coefficient_within_one_percent_before_and_after_the_change() {
+    let settings = Settings::default();
+    let truth = simulate(&settings);
+    let z = measure(&truth, 1.0, settings.seed);
+    let e = run_filter(FilterKind::SrCkf, &Tuning::new(1.0), &truth, &z, settings.sample_time, &[]).unwrap();
+    let (before, end) = (1999, truth.time.len() - 1);
+    for i in 0..10 {
+        let (b, a) =
+            ((e.coefficients[before][i] / BEFORE[i] - 1.0).abs(), (e.coefficients[end][i] / AFTER[i] - 1.0).abs());
+        assert!(b < 0.01 && a < 0.01, "{}: {:.3} % before, {:.3} % after", NAMES[i], 100.0 * b, 100.0 * a);
+    }
+    // Back within 3 % of the new values half a second after the change, and for good.
+    let back = 2000 + 100;
+    for k in back..=end {
+        for i in 0..10 {
+            let r = (e.coefficients[k][i] / AFTER[i] - 1.0).abs();
+            assert!(r < 0.03, "{} at {:.3} s: {:.2} %", NAMES[i], truth.time[k], 100.0 * r);
+        }
+    }
+}
+
+#[test]
+fn the_monte_carlo_prints_both_checkpoints_and_shards_split_its_runs() {
+    let monte_carlo = |shard: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_scenarios"))
+            .args(["s5-monte-carlo", "--runs", "2", "--filters", "SRCKF", "--shard", shard])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let whole = monte_carlo("1/1");
+    let rows = |text: &str| text.lines().filter(|l| l.starts_with("SRCKF    C")).count();
+    assert_eq!(rows(&whole), 20, "ten coefficients at each of two checkpoints:\n{whole}");
+    assert!(whole.contains("NEES of the 10 coefficients: mean") && whole.contains("over 2 runs"), "{whole}");
+    let half = monte_carlo("2/2");
+    assert!(half.contains("over 1 runs"), "the second shard has one of the two runs:\n{half}");
+}
