@@ -43,6 +43,8 @@ pub struct Instance {
     pub(crate) estimation: Option<Estimation>,
     /// The inputs as they stand, by measurement row (non-finite: missing).
     measurement: Vec<f64>,
+    /// The controls as they stand, by component of `u` (always finite).
+    controls: Vec<f64>,
     /// Per measurement row: the importer has set this input at least once.
     pub(crate) input_ever_set: Vec<bool>,
     /// An input was set at the current communication point.
@@ -66,7 +68,7 @@ impl Instance {
         logger: Fmi2CallbackLogger,
         logging_on: bool,
     ) -> Self {
-        let m = descriptor.measurement_dim();
+        let (m, k) = (descriptor.measurement_dim(), descriptor.control_dim());
         let mut instance = Self {
             descriptor,
             name,
@@ -82,6 +84,7 @@ impl Instance {
             last_successful_time: 0.0,
             estimation: None,
             measurement: vec![f64::NAN; m],
+            controls: vec![0.0; k],
             input_ever_set: vec![false; m],
             inputs_set: false,
             outputs_stale: false,
@@ -214,10 +217,17 @@ impl Instance {
             self.log(Fmi2Status::Ok, "logEvents", "tunable parameters applied to the filter noise");
         }
         for &(i, _) in updates {
-            if let Role::Measurement(row) = self.descriptor.variables[i].role {
-                self.input_ever_set[row] = true;
-                self.inputs_set = true;
-                self.outputs_stale = true;
+            match self.descriptor.variables[i].role {
+                Role::Measurement(row) => {
+                    self.input_ever_set[row] = true;
+                    self.inputs_set = true;
+                    self.outputs_stale = true;
+                }
+                Role::Control(_) => {
+                    self.inputs_set = true;
+                    self.outputs_stale = true;
+                }
+                _ => {}
             }
         }
         Fmi2Status::Ok
@@ -244,7 +254,8 @@ impl Instance {
 
     /// `fmi2ExitInitializationMode`: builds the filter from the parameters.
     pub fn exit_initialization(&mut self) -> Fmi2Status {
-        match build_estimation(&self.descriptor, &self.values, self.start_time) {
+        self.load_controls();
+        match build_estimation(&self.descriptor, &self.values, self.start_time, &self.controls) {
             Ok(estimation) => {
                 let kind = estimation.filter().kind();
                 self.estimation = Some(estimation);
@@ -285,11 +296,12 @@ impl Instance {
             }
         }
         self.load_measurement();
+        self.load_controls();
         let Some(estimation) = self.estimation.as_mut() else {
             return self.error("fmi2DoStep: no filter (internal state lost)");
         };
         let end = t + h;
-        let stepped = estimation.step(t, h, &self.measurement);
+        let stepped = estimation.step(t, h, &self.measurement, &self.controls);
         self.report_events();
         let Some(estimation) = self.estimation.as_mut() else {
             return self.error("fmi2DoStep: no filter (internal state lost)");
@@ -395,11 +407,12 @@ impl Instance {
         }
         self.outputs_stale = false;
         self.load_measurement();
+        self.load_controls();
         let Some(estimation) = self.estimation.as_mut() else { return };
         let p = Parameters::new(&self.descriptor.variables, &self.values);
         let build_noise = self.descriptor.build_noise;
         let noise_over = |dt: f64| build_noise(&p, dt);
-        let inputs = self.inputs_set.then_some(self.measurement.as_slice());
+        let inputs = self.inputs_set.then_some((self.measurement.as_slice(), self.controls.as_slice()));
         let failed = match estimation.read(self.time, inputs, &noise_over) {
             Ok(reading) => {
                 write_outputs(&self.descriptor.variables, &mut self.values, Some(&reading));
@@ -419,6 +432,15 @@ impl Instance {
 
     pub fn sample_time(&self) -> f64 {
         Parameters::new(&self.descriptor.variables, &self.values).get("sample_time").unwrap_or(f64::NAN)
+    }
+
+    /// Copies the control inputs into the controls vector (`fmi2SetReal` keeps them finite).
+    fn load_controls(&mut self) {
+        for (v, &x) in self.descriptor.variables.iter().zip(&self.values) {
+            if let Role::Control(j) = v.role {
+                self.controls[j] = x;
+            }
+        }
     }
 
     /// Copies the inputs into the measurement vector: NaN for an input never
@@ -490,7 +512,13 @@ pub(crate) fn build_filter(
 
 /// The estimation of an instance with these parameter values from `start_time`:
 /// the filter, its twin for reads, the grid and the input timing.
-pub(crate) fn build_estimation(descriptor: &Descriptor, values: &[f64], start_time: f64) -> Result<Estimation, String> {
+/// `controls`: those standing at the start.
+pub(crate) fn build_estimation(
+    descriptor: &Descriptor,
+    values: &[f64],
+    start_time: f64,
+    controls: &[f64],
+) -> Result<Estimation, String> {
     let p = Parameters::new(&descriptor.variables, values);
     let timing = InputTiming::from_value(p.get("input_timing")?)?;
     let sample_time = p.positive("sample_time")?;
@@ -507,5 +535,12 @@ pub(crate) fn build_estimation(descriptor: &Descriptor, values: &[f64], start_ti
     let supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;
     let filter = build_filter(descriptor, values, start_time)?;
     let reader = build_filter(descriptor, values, start_time)?;
-    Ok(Estimation::new(filter, reader, start_time, sample_time, timing, supervisor))
+    if filter.snapshot().input.len() != controls.len() {
+        return Err(format!(
+            "the model has {} known inputs, the FMU {} controls",
+            filter.snapshot().input.len(),
+            controls.len()
+        ));
+    }
+    Ok(Estimation::new(filter, reader, start_time, sample_time, timing, supervisor, controls))
 }

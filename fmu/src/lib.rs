@@ -37,7 +37,7 @@ use std::ptr;
 use ffi::*;
 use instance::Instance;
 use state::{Mask, ModelState};
-use variables::Kind;
+use variables::{Kind, Role};
 
 /// Runs `f` on the instance behind `c` if `mask` allows its state; catches panics.
 fn with_instance(
@@ -378,6 +378,13 @@ unsafe fn set_values<T: Copy>(
                     var.name
                 ));
             }
+            // A control is never missing (timing.rs, rule 7): the filter cannot predict without it.
+            if matches!(var.role, Role::Control(_)) && !x.is_finite() {
+                return inst.error(&format!(
+                    "{function}: control {} (vr {r}) must be finite, got {x}; a control cannot be missing, the values are unchanged",
+                    var.name
+                ));
+            }
             updates.push((index, x));
         }
         let status = inst.set_values(&updates);
@@ -515,7 +522,8 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, fmu_state: *mut Fmi2F
 
 /// Restores a state's bytes into the instance, or says why not.
 fn restore(inst: &mut Instance, bytes: &[u8], function: &str) -> Fmi2Status {
-    let parsed = serialize::parse(bytes, inst.descriptor.guid(), inst.values.len(), inst.descriptor.measurement_dim());
+    let d = &inst.descriptor;
+    let parsed = serialize::parse(bytes, d.guid(), inst.values.len(), d.measurement_dim(), d.control_dim());
     match parsed.and_then(|saved| serialize::apply(inst, saved)) {
         Ok(()) => {
             inst.log(Fmi2Status::Ok, "logEvents", &format!("FMU state restored at t = {}", inst.time));
@@ -612,8 +620,8 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
         let Some(bytes) = (unsafe { slice(serialized.cast::<u8>(), size) }) else {
             return inst.error("fmi2DeSerializeFMUstate: serializedState is NULL");
         };
-        let check =
-            serialize::parse(bytes, inst.descriptor.guid(), inst.values.len(), inst.descriptor.measurement_dim());
+        let d = &inst.descriptor;
+        let check = serialize::parse(bytes, d.guid(), inst.values.len(), d.measurement_dim(), d.control_dim());
         if let Err(why) = check {
             return inst.error(&format!("fmi2DeSerializeFMUstate: {why}"));
         }

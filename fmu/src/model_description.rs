@@ -28,9 +28,9 @@ pub fn model_description(d: &Descriptor) -> String {
     );
     x.push_str("  <UnitDefinitions>\n");
     for unit in UNITS.iter().filter(|u| d.variables.iter().any(|v| v.unit == Some(u.name))) {
-        let [kg, m, s] = unit.exponents;
+        let [kg, m, s, rad] = unit.exponents;
         let mut base = String::new();
-        for (name, e) in [("kg", kg), ("m", m), ("s", s)] {
+        for (name, e) in [("kg", kg), ("m", m), ("s", s), ("rad", rad)] {
             if e != 0 {
                 let _ = write!(base, r#" {name}="{e}""#);
             }
@@ -89,7 +89,8 @@ pub fn model_description(d: &Descriptor) -> String {
     };
     let outputs = indices(Causality::Output);
     // Every output is the estimate given the measurements up to the time it is
-    // read, so it depends on every input of that time: direct feedthrough.
+    // read, so it depends on every input of that time: direct feedthrough (the
+    // controls too, through the observation h(x, u) of the update at that time).
     let inputs: Vec<String> = indices(Causality::Input).iter().map(usize::to_string).collect();
     for i in &outputs {
         let _ = writeln!(x, r#"      <Unknown index="{i}" dependencies="{}"/>"#, inputs.join(" "));
@@ -181,14 +182,35 @@ const TIMING: &str = concat!(
     "it) is not a sample instant: inputs set there are not measurements, and outputs read there are the ",
     "prediction from the last sample to that time (with the process noise of that interval). A warning says so ",
     "once. A master that steps by a multiple of <code>sample_time</code> has every sample it hands over used.</li>\n",
-    "<li>An input never set is missing, not zero. A NaN or infinite input leaves its row out of the update, is ",
-    "counted in <code>skipped_measurements</code> and reported once per input.</li>\n",
+    "<li>A measurement input never set is missing, not zero. A NaN or infinite measurement leaves its row out of ",
+    "the update, is counted in <code>skipped_measurements</code> and reported once per input.</li>\n",
     "<li><code>input_timing</code> = 2 (<code>step_end</code>) is for masters that step the plant first and hand ",
     "over its outputs of t + h before our fmi2DoStep(t, h) (Gauss–Seidel): those inputs are the measurement at ",
     "t + h, the step updates there, and the outputs after the step are x̂(t+h | t+h); setting inputs does not ",
     "change the outputs.</li>\n",
     "<li>A filter failure returns fmi2Discard with the time and the reason; the outputs stay at the last good ",
     "estimate, whose time <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> gives.</li>\n</ul>",
+);
+
+/// How controls are timed, for the `documentation/index.html` of an FMU with controls
+/// (rules 5–8 of `timing.rs`).
+const CONTROLS_TIMING: &str = concat!(
+    "<p><b>Controls.</b> The control inputs are known inputs of the model (e.g. rudder deflections), not ",
+    "measurements. They are held, as a control computer outputs them: the controls of time τ are in force from τ ",
+    "until the communication point whose controls come next. The filter samples them on its grid, as it does the ",
+    "measurements: the controls in force at a sample instant t<sub>k</sub> enter the update at t<sub>k</sub> (the ",
+    "observation h(x, u(t<sub>k</sub>))) and the prediction from t<sub>k</sub> to t<sub>k+1</sub>.</p>\n<ul>\n",
+    "<li>With <code>input_timing</code> = 1 the controls set at t are those of t, held over [t, t+h): they enter ",
+    "the update at t (at the step, or at a read after inputs were set at t: setting a control counts as setting ",
+    "an input) and the prediction from every sample in [t, t+h). A prediction from a sample before t (a step that ",
+    "starts off the grid) keeps the controls in force at that sample.</li>\n",
+    "<li>With <code>input_timing</code> = 2 (<code>step_end</code>) everything set before fmi2DoStep(t, h) is of ",
+    "t + h, the controls too: they enter the update at t + h and the predictions from t + h on (at the next ",
+    "step); the predictions inside the step use the controls of t, set before the previous step (at the first ",
+    "step: those standing at fmi2ExitInitializationMode, set in initialisation mode, or 0).</li>\n",
+    "<li>A control is never missing: fmi2SetReal refuses a NaN or infinite control with fmi2Error and changes ",
+    "nothing. A control never set is its start value, 0.</li>\n",
+    "<li>The controls in force are part of the FMU state, which restores them bit for bit.</li>\n</ul>\n",
 );
 
 /// Gross errors and the health flags, for `documentation/index.html` (`estimator::Supervisor`).
@@ -227,7 +249,7 @@ pub fn documentation(d: &Descriptor) -> String {
          td,th{{border:1px solid #ccc;padding:0.2em 0.5em;text-align:left}}</style></head><body>\n\
          <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
          <h2>The study</h2>\n{doc}\n\
-         <h2>Time: which measurement, which estimate</h2>\n{TIMING}\n\
+         <h2>Time: which measurement, which estimate</h2>\n{TIMING}\n{controls}\
          <h2>Gross errors, faults and health</h2>\n{SUPERVISION}\n\
          <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
          fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
@@ -236,7 +258,8 @@ pub fn documentation(d: &Descriptor) -> String {
         description = esc(d.description),
         id = d.model_identifier,
         guid = d.guid(),
-        doc = d.documentation
+        doc = d.documentation,
+        controls = if d.control_dim() > 0 { CONTROLS_TIMING } else { "" }
     );
     for (title, causality) in
         [("Inputs", Causality::Input), ("Outputs", Causality::Output), ("Parameters", Causality::Parameter)]

@@ -9,10 +9,12 @@
 //! per input channel (u32 count, then each): ever set (u8)  missing reported (u8)
 //! estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
 //!                           supervisor memory (u32 count + u64 each)
+//!                           controls in force (u32 count + f64 each)
 //!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
 //! ```
 //!
-//! All numbers little-endian. The filter and its twin for reads are rebuilt
+//! All numbers little-endian. Version 4 added the controls in force (the
+//! controls the filter holds for its sample are the snapshot's input). The filter and its twin for reads are rebuilt
 //! from the parameter values and the belief restored from the snapshot; the
 //! outputs are computed afresh at the next read, from exactly that.
 
@@ -23,7 +25,7 @@ use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.
@@ -58,6 +60,7 @@ pub fn save(instance: &Instance) -> Vec<u8> {
             for &word in &p.supervisor {
                 w.u64(word);
             }
+            w.f64s(&p.controls);
             w.u8(kind_tag(p.belief.kind));
             w.f64(p.belief.time);
             w.f64s(&p.belief.input);
@@ -84,8 +87,8 @@ pub struct Saved {
 }
 
 /// Parses and checks a saved state for an instance of `guid` with
-/// `n_values` variables and `m` measurement channels.
-pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Saved, String> {
+/// `n_values` variables, `m` measurement channels and `k` controls.
+pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> Result<Saved, String> {
     let mut r = Reader { bytes, at: 0 };
     if r.take(8)? != MAGIC {
         return Err("not a kalfmu FMU state (bad magic)".into());
@@ -129,11 +132,18 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize) -> Result<Save
                 return Err("FMU state is truncated".into());
             }
             let supervisor = (0..words).map(|_| r.u64()).collect::<Result<Vec<u64>, String>>()?;
+            let controls = r.f64s()?;
+            if controls.len() != k || controls.iter().any(|u| !u.is_finite()) {
+                return Err(format!(
+                    "FMU state has {} controls (or a non-finite one), the FMU has {k}",
+                    controls.len()
+                ));
+            }
             let kind = kind_of(r.u8()?)?;
             let time = r.f64()?;
             let (input, mean, covariance) = (r.f64s()?, r.f64s()?, r.f64s()?);
             let belief = Snapshot { kind, time, input, mean, covariance };
-            Some(Progress { samples, measured, skipped, nis, supervisor, belief })
+            Some(Progress { samples, measured, skipped, nis, supervisor, controls, belief })
         }
     };
     if r.at != bytes.len() {
@@ -163,7 +173,12 @@ pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
     let estimation = match &saved.progress {
         None => None,
         Some(progress) => {
-            let fresh = crate::instance::build_estimation(&instance.descriptor, &saved.values, saved.start_time)?;
+            let fresh = crate::instance::build_estimation(
+                &instance.descriptor,
+                &saved.values,
+                saved.start_time,
+                &progress.controls,
+            )?;
             Some(fresh.resume(progress).map_err(|e| format!("cannot restore the filter: {e}"))?)
         }
     };

@@ -37,6 +37,33 @@
 //! predicts to `t + h` and updates there when it is a sample instant, and the
 //! outputs after the step are `x̂(t+h | t+h)`. The outputs do not change when
 //! inputs are set.
+//!
+//! Controls (known inputs `u` of the model, e.g. rudder deflections, the inputs of
+//! `Role::Control`) are held, as a control computer outputs them (zero-order hold):
+//! the controls of time `τ` are in force over `[τ, τ')`, `τ'` the communication
+//! point whose controls come next. The filter samples them on its grid, as it does
+//! the measurements: the controls in force at sample instant `tₖ` enter the update
+//! at `tₖ` (the observation `h(x, u(tₖ))`) and the prediction from `tₖ` to `tₖ₊₁`.
+//!
+//! 5. With [`InputTiming::AtCommunicationPoint`] the controls set at `t` are
+//!    those of `t`, held over `[t, t + h)`: they enter the update at `t` (at the
+//!    step, or at a read after inputs were set there) and the prediction from
+//!    every sample in `[t, t + h)`. The prediction from a sample before `t`
+//!    (a step that starts off the grid) keeps the controls in force at that
+//!    sample, those of the step it fell in.
+//! 6. With [`InputTiming::AtStepEnd`] everything set before `fmi2DoStep(t, h)` is
+//!    of `t + h`: the controls too. They enter the update at `t + h` (when it is
+//!    a sample instant) and the predictions from the samples in `[t + h, …)`,
+//!    at the next step; the predictions inside this step use the controls of
+//!    `t`, set before the previous step (at the first step: those standing at
+//!    `fmi2ExitInitializationMode`, set in initialisation mode or 0).
+//! 7. A control is never missing: a non-finite value is refused by `fmi2SetReal`
+//!    (the instance keeps the previous one), and one never set is its start
+//!    value, 0. Setting a control at `t` counts as setting an input there (a
+//!    read makes the update at `t` with the inputs as they stand).
+//! 8. The controls in force are part of the FMU state: the instance's input
+//!    values, the filter's held input (the controls of its current sample) and
+//!    [`Progress::controls`] (those in force from the FMU's time on).
 
 use estimator::{FaultChange, FilterError, Noise, Snapshot, StateEstimator, Supervisor};
 
@@ -117,6 +144,16 @@ pub struct Estimation {
     posterior_ready: bool,
     /// Buffers for copying the filter's belief into the reader.
     copy: Snapshot,
+    /// The controls in force from the FMU's current time on, as far as known
+    /// (the controls of the last communication point with `AtStepEnd`; with
+    /// `AtCommunicationPoint` those of the step being made).
+    standing: Vec<f64>,
+    /// The controls in force at the filter's current sample once they are
+    /// known: the input the filter holds (`StateEstimator::predict`), which its
+    /// update uses.
+    sample_controls: Vec<f64>,
+    /// The controls of the pending feedthrough update (`posterior_ready`).
+    read_controls: Vec<f64>,
     start: f64,
     sample_time: f64,
     timing: InputTiming,
@@ -147,14 +184,19 @@ pub struct Progress {
     pub nis: f64,
     /// The supervisor's memory (`estimator::Supervisor::save`).
     pub supervisor: Vec<u64>,
-    /// The filter's belief at the current sample.
+    /// The controls in force from the FMU's time on (`AtStepEnd`: those of that
+    /// time, needed by the next step's predictions).
+    pub controls: Vec<f64>,
+    /// The filter's belief at the current sample (its held input: the controls
+    /// of that sample).
     pub belief: Snapshot,
 }
 
 impl Estimation {
     /// Starts on the grid `start + k·sample_time` with `filter`'s belief at
     /// `start`; `reader` is a second filter of the same build; every update
-    /// goes through `supervisor`.
+    /// goes through `supervisor`; `controls` are those standing at the start
+    /// (the controls of the start time with `AtStepEnd`).
     pub fn new(
         filter: Box<dyn StateEstimator>,
         reader: Box<dyn StateEstimator>,
@@ -162,6 +204,7 @@ impl Estimation {
         sample_time: f64,
         timing: InputTiming,
         supervisor: Supervisor,
+        controls: &[f64],
     ) -> Self {
         let copy = filter.snapshot();
         let (m, nis) = (filter.measurement_dim(), filter.innovation().nis());
@@ -170,6 +213,9 @@ impl Estimation {
             reader,
             reader_interval: sample_time,
             posterior_ready: false,
+            standing: controls.to_vec(),
+            sample_controls: copy.input.clone(),
+            read_controls: controls.to_vec(),
             copy,
             start,
             sample_time,
@@ -187,6 +233,15 @@ impl Estimation {
     /// Continues from a saved [`Progress`] instead of the start.
     pub fn resume(mut self, progress: &Progress) -> Result<Self, FilterError> {
         self.filter.restore(&progress.belief)?;
+        if progress.controls.len() != self.standing.len() {
+            return Err(FilterError::InvalidSetting(format!(
+                "{} controls saved, the model has {}",
+                progress.controls.len(),
+                self.standing.len()
+            )));
+        }
+        self.standing.copy_from_slice(&progress.controls);
+        self.sample_controls.copy_from_slice(&progress.belief.input);
         self.samples = progress.samples;
         self.measured = progress.measured;
         self.skipped = progress.skipped;
@@ -207,6 +262,7 @@ impl Estimation {
                 self.supervisor.save(&mut words);
                 words
             },
+            controls: self.standing.clone(),
             belief: self.filter.snapshot(),
         }
     }
@@ -249,12 +305,21 @@ impl Estimation {
         (t - self.current_sample()).abs() <= self.tolerance()
     }
 
-    /// `fmi2DoStep(t, h)` with the inputs `z` as they stand (non-finite: missing).
-    pub fn step(&mut self, t: f64, h: f64, z: &[f64]) -> Result<(), StepFailure> {
+    /// `fmi2DoStep(t, h)` with the measurement inputs `z` (non-finite: missing)
+    /// and the controls `u` as they stand.
+    pub fn step(&mut self, t: f64, h: f64, z: &[f64], u: &[f64]) -> Result<(), StepFailure> {
         let posterior_ready = std::mem::take(&mut self.posterior_ready);
+        let end = t + h;
+        if self.timing == InputTiming::AtCommunicationPoint {
+            // The controls set at t are held over the step.
+            self.standing.copy_from_slice(u);
+        }
+        if self.at_current_sample(t) {
+            self.hold_standing().map_err(|error| self.failure(self.samples, error))?;
+        }
         if self.timing == InputTiming::AtCommunicationPoint && self.at_current_sample(t) && !self.measured {
             let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-            if posterior_ready && same(self.supervisor.pending_measurement(), z) {
+            if posterior_ready && same(self.supervisor.pending_measurement(), z) && same(&self.read_controls, u) {
                 // The read already made this update: take its result, bit for bit.
                 self.reader.snapshot_into(&mut self.copy);
                 if let Err(error) = self.filter.restore(&self.copy) {
@@ -265,18 +330,48 @@ impl Estimation {
                 self.update(z)?;
             }
         }
-        let end = t + h;
         while self.sample_instant(self.samples + 1) <= end + self.tolerance() {
-            let result = self.filter.predict(&[], self.sample_time);
+            // From a sample inside the step, the controls held over it; from one
+            // before it (a step starting off the grid), those recorded there.
+            if self.current_sample() >= t - self.tolerance() {
+                self.sample_controls.copy_from_slice(&self.standing);
+            }
+            let result = self.filter.predict(&self.sample_controls, self.sample_time);
             if let Err(error) = result {
                 return Err(self.failure(self.samples + 1, error));
             }
             self.samples += 1;
             self.measured = false;
         }
-        if self.timing == InputTiming::AtStepEnd && self.at_current_sample(end) {
-            self.update(z)?;
+        if !self.at_current_sample(end) && self.current_sample() >= t - self.tolerance() {
+            // A sample strictly inside the step: the controls held over it are its own.
+            self.hold_standing().map_err(|error| self.failure(self.samples, error))?;
         }
+        if self.timing == InputTiming::AtStepEnd {
+            // The controls set for this step are those of t + h.
+            self.standing.copy_from_slice(u);
+            if self.at_current_sample(end) {
+                self.hold_standing().map_err(|error| self.failure(self.samples, error))?;
+                self.update(z)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Makes the standing controls those the filter holds for its current
+    /// sample (used by its update and its next prediction). Changes nothing
+    /// when they already are, as always for a model without controls.
+    fn hold_standing(&mut self) -> Result<(), FilterError> {
+        let same = self.sample_controls.iter().zip(&self.standing).all(|(a, b)| a.to_bits() == b.to_bits());
+        if same {
+            return Ok(());
+        }
+        // The filter holds the input of its last prediction; a snapshot with the new
+        // input restored is the same belief holding these controls, bit for bit.
+        self.filter.snapshot_into(&mut self.copy);
+        self.copy.input.copy_from_slice(&self.standing);
+        self.filter.restore(&self.copy)?;
+        self.sample_controls.copy_from_slice(&self.standing);
         Ok(())
     }
 
@@ -313,20 +408,23 @@ impl Estimation {
     }
 
     /// The belief at time `t` (a communication point, not before the current
-    /// sample). `inputs` are the inputs when some were set at `t`;
-    /// `noise_over(dt)` builds `Q` and `R` for a prediction over `dt`.
+    /// sample). `inputs` are the measurement inputs and the controls when some
+    /// input was set at `t`; `noise_over(dt)` builds `Q` and `R` for a
+    /// prediction over `dt`.
     pub fn read(
         &mut self,
         t: f64,
-        inputs: Option<&[f64]>,
+        inputs: Option<(&[f64], &[f64])>,
         noise_over: &dyn Fn(f64) -> Result<Noise, String>,
     ) -> Result<Reading<'_>, String> {
         self.posterior_ready = false;
         let feedthrough = self.timing == InputTiming::AtCommunicationPoint && !self.measured;
         if self.at_current_sample(t) {
             match inputs {
-                Some(z) if feedthrough => {
-                    self.load_reader()?;
+                Some((z, u)) if feedthrough => {
+                    // The update at t with the controls of t (rule 5).
+                    self.load_reader(Some(u))?;
+                    self.read_controls.copy_from_slice(u);
                     let nis = match self.supervisor.gate(self.reader.as_mut(), z) {
                         Ok(outcome) => outcome.nis,
                         Err(e) => return Err(format!("the update with the inputs at t = {t} s failed: {e}")),
@@ -350,14 +448,15 @@ impl Estimation {
                     self.current_sample()
                 ));
             }
-            self.load_reader()?;
+            // The prediction keeps the controls in force at the current sample.
+            self.load_reader(None)?;
             if dt != self.reader_interval {
                 let noise = noise_over(dt)?;
                 self.reader.set_noise(noise).map_err(|e| e.to_string())?;
                 self.reader_interval = dt;
             }
             self.reader
-                .predict(&[], dt)
+                .predict(&self.sample_controls, dt)
                 .map_err(|e| format!("the prediction from {} s to {t} s failed: {e}", self.current_sample()))?;
             Ok(self.committed_reading(true))
         }
@@ -384,8 +483,13 @@ impl Estimation {
         }
     }
 
-    fn load_reader(&mut self) -> Result<(), String> {
+    /// Copies the filter's belief into the reader, holding `controls` instead of
+    /// the filter's input when given.
+    fn load_reader(&mut self, controls: Option<&[f64]>) -> Result<(), String> {
         self.filter.snapshot_into(&mut self.copy);
+        if let Some(u) = controls {
+            self.copy.input.copy_from_slice(u);
+        }
         self.reader.restore(&self.copy).map_err(|e| format!("cannot copy the belief for the read: {e}"))
     }
 

@@ -58,6 +58,9 @@ pub enum Role {
     Parameter,
     /// Input: row `j` of the measurement vector.
     Measurement(usize),
+    /// Input: component `j` of the known input `u` of the model (a control, e.g. a
+    /// deflection), held from the communication point it is set at (`timing.rs`).
+    Control(usize),
     /// Output: state estimate `i`.
     Estimate(usize),
     /// Output: standard deviation of state estimate `i`.
@@ -132,6 +135,12 @@ impl Variable {
         }
     }
 
+    /// A Real input: component `index` of the known input `u` (a control). Its start
+    /// value, 0, is a value: unlike a measurement, a control is never missing.
+    pub fn control(name: &'static str, unit: &'static str, index: usize, description: &'static str) -> Self {
+        Self { role: Role::Control(index), ..Self::measurement(name, unit, 0, description) }
+    }
+
     /// A Real output.
     pub fn output(name: &'static str, unit: &'static str, role: Role, description: &'static str) -> Self {
         Self {
@@ -185,30 +194,33 @@ impl Variable {
     }
 }
 
-/// A unit and its exponents of the SI base units `kg, m, s`.
+/// A unit and its exponents of the base units `kg, m, s, rad`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Unit {
     /// The unit name.
     pub name: &'static str,
-    /// Exponents of kg, m, s.
-    pub exponents: [i8; 3],
+    /// Exponents of kg, m, s, rad.
+    pub exponents: [i8; 4],
 }
 
 /// Every unit the FMUs use; `<UnitDefinitions>` declares those a description uses.
 pub const UNITS: &[Unit] = &[
-    Unit { name: "1", exponents: [0, 0, 0] },
-    Unit { name: "s", exponents: [0, 0, 1] },
-    Unit { name: "kg", exponents: [1, 0, 0] },
-    Unit { name: "m", exponents: [0, 1, 0] },
-    Unit { name: "m/s", exponents: [0, 1, -1] },
-    Unit { name: "m/s2", exponents: [0, 1, -2] },
-    Unit { name: "N", exponents: [1, 1, -2] },
-    Unit { name: "N/s", exponents: [1, 1, -3] },
-    Unit { name: "N/m", exponents: [1, 0, -2] },
-    Unit { name: "N.s/m", exponents: [1, 0, -1] },
-    Unit { name: "N2/s3", exponents: [2, 2, -7] },
-    Unit { name: "N2/s", exponents: [2, 2, -5] },
-    Unit { name: "kg.m2", exponents: [1, 2, 0] },
+    Unit { name: "1", exponents: [0, 0, 0, 0] },
+    Unit { name: "s", exponents: [0, 0, 1, 0] },
+    Unit { name: "kg", exponents: [1, 0, 0, 0] },
+    Unit { name: "m", exponents: [0, 1, 0, 0] },
+    Unit { name: "m/s", exponents: [0, 1, -1, 0] },
+    Unit { name: "m/s2", exponents: [0, 1, -2, 0] },
+    Unit { name: "N", exponents: [1, 1, -2, 0] },
+    Unit { name: "N/s", exponents: [1, 1, -3, 0] },
+    Unit { name: "N/m", exponents: [1, 0, -2, 0] },
+    Unit { name: "N.s/m", exponents: [1, 0, -1, 0] },
+    Unit { name: "N2/s3", exponents: [2, 2, -7, 0] },
+    Unit { name: "N2/s", exponents: [2, 2, -5, 0] },
+    Unit { name: "kg.m2", exponents: [1, 2, 0, 0] },
+    Unit { name: "m2", exponents: [0, 2, 0, 0] },
+    Unit { name: "rad", exponents: [0, 0, 0, 1] },
+    Unit { name: "rad/s", exponents: [0, 0, -1, 1] },
 ];
 
 /// Read access to the parameter values of an instance, by name.

@@ -17,7 +17,9 @@
 //! * a rejected call changes nothing: the instance goes on as predicted
 //!   (e.g. after a refused `fmi2SetReal` in StepComplete `fmi2DoStep` works),
 //!   and parameters and inputs read back exactly what was last accepted;
-//! * getters write no further than `nvr`.
+//! * getters write no further than `nvr`;
+//! * a control (a known input of the model) is never missing: a non-finite
+//!   one is refused with `fmi2Error`, the previous value kept.
 //!
 //! The directed tests after them run on every FMU too (the capture test splits
 //! its runs between them), and check that one FMU refuses another's state.
@@ -146,6 +148,34 @@ impl Table {
         (0..self.0.measurement_dim()).map(|row| self.select(|v| v.role == Role::Measurement(row))[0]).collect()
     }
 
+    /// The controls, in the order of the model's input (none for S1 and S2).
+    fn controls(self) -> Vec<u32> {
+        (0..self.0.control_dim()).map(|j| self.select(|v| v.role == Role::Control(j))[0]).collect()
+    }
+
+    /// A plausible measurement at `t` for the directed runs that must step without a
+    /// filter failure, input `i` a tone of `(7 + 4i)` rad/s and a small one of 53 rad/s:
+    /// about 0 for the oscillators of S1 and S2; about the measurement of the prior
+    /// flight for S5, whose missile flies at 1 km/s at 10 km (the sums of sines about 0
+    /// that suit S1 and S2 would make its filter diverge), at the sensors' noise level.
+    fn plausible(self, t: f64) -> Vec<f64> {
+        let tone = |i: usize| 0.5 * ((7.0 + 4.0 * i as f64) * t).sin() + 0.1 * (53.0 * t + i as f64).cos();
+        let Some(prior) = self.prior_flight() else {
+            return (0..self.inputs().len()).map(tone).collect();
+        };
+        let mut z = vec![0.0; 12];
+        estimator::models::Airframe::tactical_missile().measure(&prior[..10], &prior[10..], &[0.0; 3], &mut z);
+        let scale = [1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1.0, 2e-3, 2e-3];
+        z.iter().enumerate().map(|(i, zi)| zi + scale[i] * tone(i)).collect()
+    }
+
+    /// S5's prior mean (the `prior_<state>` parameters), if this is S5.
+    fn prior_flight(self) -> Option<Vec<f64>> {
+        let names = estimator::models::Missile6Dof::STATE_NAMES;
+        let value = |n: &str| self.variables().iter().find(|v| v.name == format!("prior_{n}")).and_then(|v| v.start);
+        names.iter().map(|n| value(n)).collect()
+    }
+
     /// The outputs of one kind (`Kind::Real`: the estimates, their deviations and the NIS).
     fn outputs(self, kind: Kind) -> Vec<u32> {
         self.select(|v| v.causality == Causality::Output && v.kind == kind)
@@ -271,6 +301,9 @@ impl Model {
                 }
             }
             if v.min.is_some_and(|m| x < m || x.is_nan()) || v.max.is_some_and(|m| x > m || x.is_nan()) {
+                return Expect::Error;
+            }
+            if matches!(v.role, Role::Control(_)) && !x.is_finite() {
                 return Expect::Error;
             }
         }
@@ -715,7 +748,8 @@ impl Sequence {
         let reals: Vec<u32> = (0..vars.len() as u32).filter(|&r| vars[r as usize].kind == Kind::Real).collect();
         let class = self.rng.random_range(0..100);
         if class < 35 {
-            let r = self.pick(&self.t.inputs());
+            let inputs: Vec<u32> = self.t.inputs().into_iter().chain(self.t.controls()).collect();
+            let r = self.pick(&inputs);
             let x = self.pick(&[
                 0.0,
                 0.3,
@@ -1383,6 +1417,8 @@ fn running_instance(t: Table, name: &CString, callbacks: &Fmi2CallbackFunctions)
 enum Call {
     /// Every input, in row order.
     SetInputs(Vec<f64>),
+    /// Every control, in the order of the model's input.
+    SetControls(Vec<f64>),
     SetTunable(u32, f64),
     Read,
     DoStep(f64),
@@ -1395,7 +1431,7 @@ enum Call {
 }
 
 /// A random legal run of one instance of FMU `t`: inputs (the first one
-/// sometimes NaN), reads, steps of 0.2, 1, 1.5 and 2 default sample times (at
+/// sometimes NaN), controls of a few degrees (if it has any), reads, steps of 0.2, 1, 1.5 and 2 default sample times (at
 /// S1's 5 ms: 1, 5, 7.5 and 10 ms), changes of a tunable (the last: a sensor's
 /// noise), and state captures between any two of them.
 fn legal_run(t: Table, seed: u64) -> Vec<Call> {
@@ -1411,6 +1447,9 @@ fn legal_run(t: Table, seed: u64) -> Vec<Call> {
                 }
                 Call::SetInputs(z)
             }
+            6 if !t.controls().is_empty() => {
+                Call::SetControls(t.controls().iter().map(|_| rng.random_range(-0.05..0.05)).collect())
+            }
             6..=9 => Call::Read,
             10..=15 => Call::DoStep([0.2, 1.0, 1.0, 1.5, 2.0][rng.random_range(0..5)] * ts),
             16 => Call::SetTunable(sensor, rng.random_range(0.005..0.05)),
@@ -1422,11 +1461,17 @@ fn legal_run(t: Table, seed: u64) -> Vec<Call> {
 }
 
 /// Runs `calls` on a new instance of FMU `t` with filter `kind`, skipping the
-/// captures unless `capture`; returns every output read, as bits.
-fn outputs_of(t: Table, calls: &[Call], kind: i32, capture: bool, callbacks: &Fmi2CallbackFunctions) -> Vec<u64> {
+/// captures unless `capture`, with `input_timing` = `timing`; returns every output read, as bits.
+fn outputs_of(
+    t: Table,
+    calls: &[Call],
+    (kind, timing): (i32, i32),
+    capture: bool,
+    callbacks: &Fmi2CallbackFunctions,
+) -> Vec<u64> {
     let name = CString::new(format!("capture-{kind}-{capture}")).expect("no NUL");
     let (reals, counts, flags) = (t.outputs(Kind::Real), t.outputs(Kind::Integer), t.outputs(Kind::Boolean));
-    let inputs = t.inputs();
+    let (inputs, controls) = (t.inputs(), t.controls());
     let (mut seen, mut held) = (Vec::new(), Vec::new());
     let mut time = 0.0;
     // SAFETY: valid strings, callbacks, pointers and lengths throughout; the
@@ -1437,11 +1482,15 @@ fn outputs_of(t: Table, calls: &[Call], kind: i32, capture: bool, callbacks: &Fm
         assert_eq!(fmu::fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), Fmi2Status::Ok);
         assert_eq!(fmu::fmi2EnterInitializationMode(c), Fmi2Status::Ok);
         assert_eq!(fmu::fmi2SetInteger(c, &t.vr("filter"), 1, &kind), Fmi2Status::Ok);
+        assert_eq!(fmu::fmi2SetInteger(c, &t.vr("input_timing"), 1, &timing), Fmi2Status::Ok);
         assert_eq!(fmu::fmi2ExitInitializationMode(c), Fmi2Status::Ok);
         for call in calls {
             match *call {
                 Call::SetInputs(ref z) => {
                     assert_eq!(fmu::fmi2SetReal(c, inputs.as_ptr(), inputs.len(), z.as_ptr()), Fmi2Status::Ok);
+                }
+                Call::SetControls(ref u) => {
+                    assert_eq!(fmu::fmi2SetReal(c, controls.as_ptr(), controls.len(), u.as_ptr()), Fmi2Status::Ok);
                 }
                 Call::SetTunable(r, x) => assert_eq!(fmu::fmi2SetReal(c, &r, 1, &x), Fmi2Status::Ok),
                 Call::Read => {
@@ -1493,7 +1542,7 @@ fn outputs_of(t: Table, calls: &[Call], kind: i32, capture: bool, callbacks: &Fm
 /// Capturing or serialising the FMU state changes nothing: for every filter
 /// kind, a random legal run gives bit for bit the outputs of the same run
 /// with the fmi2GetFMUstate / fmi2SerializedFMUstateSize /
-/// fmi2SerializeFMUstate / fmi2FreeFMUstate calls left out. The 24 runs are
+/// fmi2SerializeFMUstate / fmi2FreeFMUstate calls left out, under either input timing. The 24 runs are
 /// split evenly between the FMUs (run `k` on FMU `k mod n`).
 #[test]
 fn capturing_the_fmu_state_changes_no_output() {
@@ -1503,8 +1552,10 @@ fn capturing_the_fmu_state_changes_no_output() {
         let t = tables[seed as usize % tables.len()];
         let calls = legal_run(t, seed);
         for kind in 1..=5 {
-            let with = outputs_of(t, &calls, kind, true, &callbacks);
-            let without = outputs_of(t, &calls, kind, false, &callbacks);
+            // Both input timings: with step_end the controls in force are saved apart from the inputs.
+            let timing = 1 + (kind + seed as i32) % 2;
+            let with = outputs_of(t, &calls, (kind, timing), true, &callbacks);
+            let without = outputs_of(t, &calls, (kind, timing), false, &callbacks);
             assert!(!with.is_empty() || !calls.iter().any(|c| matches!(c, Call::Read)));
             if let Some(i) = with.iter().zip(&without).position(|(a, b)| a != b) {
                 panic!(
@@ -1527,7 +1578,7 @@ fn rejected_calls_leave_the_instance_usable() {
     for table in Table::all() {
         let (name_a, name_b) = (c"rejected-a".to_owned(), c"rejected-b".to_owned());
         let (a, b) = (running_instance(table, &name_a, &callbacks), running_instance(table, &name_b, &callbacks));
-        let inputs = table.inputs();
+        let (inputs, controls) = (table.inputs(), table.controls());
         let outputs = table.outputs(Kind::Real);
         let tunables = table.tunables();
         let dt = table.sample_time();
@@ -1535,14 +1586,17 @@ fn rejected_calls_leave_the_instance_usable() {
         unsafe {
             for k in 0..60 {
                 let t = k as f64 * dt;
-                let z: Vec<f64> = (0..inputs.len()).map(|i| 0.5 * ((3.0 + 4.0 * i as f64) * t).sin()).collect();
+                let z = table.plausible(t);
+                let u: Vec<f64> = (0..controls.len()).map(|j| 0.01 * ((2.0 + j as f64) * t).sin()).collect();
                 for c in [a, b] {
                     assert_eq!(fmu::fmi2SetReal(c, inputs.as_ptr(), inputs.len(), z.as_ptr()), Fmi2Status::Ok);
+                    assert_eq!(fmu::fmi2SetReal(c, controls.as_ptr(), controls.len(), u.as_ptr()), Fmi2Status::Ok);
                 }
                 if k % 3 == 0 {
                     // Refused: an output, a fixed parameter, NaN / inf into a tunable,
-                    // an Integer through SetReal, an unknown reference, wrong step arguments.
-                    let refused: [(u32, f64); 6] = [
+                    // an Integer through SetReal, an unknown reference, wrong step
+                    // arguments; a NaN or infinite control (a control is never missing).
+                    let mut refused = vec![
                         (table.estimate(), 1.0),
                         (table.fixed_real(), 5.0),
                         (tunables[0], f64::NAN),
@@ -1550,6 +1604,9 @@ fn rejected_calls_leave_the_instance_usable() {
                         (table.vr("rk4_substeps"), 2.0),
                         (999, 0.0),
                     ];
+                    for &r in &controls {
+                        refused.extend([(r, f64::NAN), (r, f64::NEG_INFINITY)]);
+                    }
                     for (r, x) in refused {
                         // A good input first: all or nothing, so it is not applied either.
                         let (vrs, xs) = ([inputs[0], r], [1e3, x]);

@@ -5,6 +5,7 @@
 
 mod s1_load;
 mod s2_wheel_rail;
+mod s5_missile;
 
 use estimator::{FilterKind, Noise, StateEstimator, SupervisorSettings, UnscentedParams};
 
@@ -47,6 +48,8 @@ pub struct Descriptor {
     pub build_filter: BuildFilter,
     /// Noise construction.
     pub build_noise: BuildNoise,
+    /// The start value of the `filter` parameter.
+    pub default_filter: FilterKind,
     guid: String,
 }
 
@@ -54,7 +57,7 @@ impl Descriptor {
     /// Completes a description: appends the variables every estimator has and
     /// derives the GUID from the whole table.
     fn finish(mut self) -> Self {
-        self.variables.extend(common_variables(self.default_experiment.step));
+        self.variables.extend(common_variables(self.default_experiment.step, self.default_filter));
         self.guid = guid_of(self.model_identifier, &self.variables);
         self
     }
@@ -68,6 +71,11 @@ impl Descriptor {
     /// Number of measurement inputs.
     pub fn measurement_dim(&self) -> usize {
         self.variables.iter().filter(|v| matches!(v.role, Role::Measurement(_))).count()
+    }
+
+    /// Number of control inputs (the model's known input `u`).
+    pub fn control_dim(&self) -> usize {
+        self.variables.iter().filter(|v| matches!(v.role, Role::Control(_))).count()
     }
 
     /// The enumeration types the variables use, each once.
@@ -88,7 +96,7 @@ impl Descriptor {
 /// the library keeps no state at all between calls (not even a table it
 /// would never free when an importer unloads it).
 pub fn all() -> Vec<Descriptor> {
-    vec![s1_load::descriptor(), s2_wheel_rail::descriptor()]
+    vec![s1_load::descriptor(), s2_wheel_rail::descriptor(), s5_missile::descriptor()]
 }
 
 /// The estimator with this GUID.
@@ -121,10 +129,13 @@ pub static INPUT_TIMING: EnumerationType = EnumerationType {
     ],
 };
 
+/// The filter kinds in the order of [`FILTER_KIND`]'s items.
+const KINDS: [FilterKind; 5] =
+    [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
+
 /// The filter kind for an enumeration value.
 pub fn filter_kind(value: f64) -> Result<FilterKind, String> {
-    let kinds = [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ukf, FilterKind::Ekf];
-    kinds
+    KINDS
         .into_iter()
         .zip(FILTER_KIND.items)
         .find(|(_, (v, _, _))| f64::from(*v) == value)
@@ -132,15 +143,21 @@ pub fn filter_kind(value: f64) -> Result<FilterKind, String> {
         .ok_or_else(|| format!("parameter filter must be 1 (CKF) … 5 (EKF), got {value}"))
 }
 
+/// The enumeration value of a filter kind.
+fn filter_value(kind: FilterKind) -> f64 {
+    KINDS.iter().zip(FILTER_KIND.items).find(|(k, _)| **k == kind).map_or(f64::NAN, |(_, (v, _, _))| f64::from(*v))
+}
+
 /// The parameters and outputs every estimator FMU has; `sample_time` starts at the
-/// estimator's default communication step.
-fn common_variables(sample_time: f64) -> Vec<Variable> {
+/// estimator's default communication step, `filter` at its default method.
+fn common_variables(sample_time: f64, filter: FilterKind) -> Vec<Variable> {
+    let filter = filter_value(filter);
     vec![
         Variable {
             kind: Kind::Enumeration(&FILTER_KIND),
-            start: Some(2.0),
+            start: Some(filter),
             unit: None,
-            ..Variable::parameter("filter", "1", 2.0, "filter method: 1 CKF, 2 SRCKF, 3 SVD-CKF, 4 UKF, 5 EKF")
+            ..Variable::parameter("filter", "1", filter, "filter method: 1 CKF, 2 SRCKF, 3 SVD-CKF, 4 UKF, 5 EKF")
         },
         Variable::parameter("sample_time", "s", sample_time, "filter sample time: one predict + update per sample")
             .bounded(Some(1e-9), None),
@@ -261,6 +278,14 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
         if !vars.iter().any(|v| v.role == Role::ChannelFault(row)) {
             return Err(format!("measurement row {row} has no fault flag output"));
         }
+    }
+    for j in 0..descriptor.control_dim() {
+        if !vars.iter().any(|v| v.role == Role::Control(j)) {
+            return Err(format!("control {j} has no input"));
+        }
+    }
+    if !filter_value(descriptor.default_filter).is_finite() {
+        return Err(format!("default filter {} is not a value of FilterKind", descriptor.default_filter));
     }
     Ok(())
 }

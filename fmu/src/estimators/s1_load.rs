@@ -118,6 +118,7 @@ pub(super) fn descriptor() -> Descriptor {
         default_experiment: DefaultExperiment { start: 0.0, stop: 10.0, step: 0.005 },
         build_filter: build,
         build_noise: noise,
+        default_filter: FilterKind::SrCkf,
         guid: String::new(),
     }
     .finish()

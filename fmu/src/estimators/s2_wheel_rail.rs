@@ -176,6 +176,7 @@ pub(super) fn descriptor() -> Descriptor {
         default_experiment: DefaultExperiment { start: 0.0, stop: 4.0, step: 0.001 },
         build_filter: build,
         build_noise: noise,
+        default_filter: FilterKind::SrCkf,
         guid: String::new(),
     }
     .finish()
