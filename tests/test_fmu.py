@@ -62,7 +62,7 @@ from fmpy.fmi2 import (
 from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
 
-from conftest import FMUS, packaged
+from conftest import CASE_FMUS, FMUS, packaged
 from models import run_replay
 
 DT = 0.005  # the FMU's default sample_time, and the study's 200 Hz
@@ -501,7 +501,7 @@ class Case:
     sensor: dict[str, float]
 
 
-@pytest.fixture(scope="module", params=list(FMUS))
+@pytest.fixture(scope="module", params=CASE_FMUS)
 def case(request, fmu_dir, tmp_path_factory) -> Case:
     """Each FMU in turn (test ids s1, s2): S1 with the study's table
     (stiffness/random), S2 with a vehicle at rest (the sensors' noise only,

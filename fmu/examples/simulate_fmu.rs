@@ -3,12 +3,15 @@
 //! binary — meant to run under valgrind (`scripts/valgrind-fmu`, on every FMU
 //! `package-fmus` writes), so it walks through every kind of call an importer
 //! makes. It knows no FMU: the inputs, outputs and parameters are found by
-//! causality in the model description, the step is its default experiment's.
+//! causality in the model description, the step is its default experiment's;
+//! an input with a fault flag (`<input>_fault`) is a measurement, one without
+//! is a control (a known input of the model, never missing).
 //!
 //! 1. instance `a`: set-up with a stop time, parameters in initialisation
 //!    mode (every tunable at 1.2 times its start value, `rk4_substeps` 2),
 //!    `STEPS` communication steps of one sample with synthetic accelerations
-//!    (some missing, logged as warnings), every Real output read every step;
+//!    (some missing, logged as warnings) and controls of a few tenths of a
+//!    degree, every Real output read every step;
 //!    half way an FMU state is saved, serialised, and a refused
 //!    `fmi2SetReal` (of an output) logs an error; at the end the state is
 //!    restored and the second half replayed (it must give the same outputs);
@@ -53,14 +56,16 @@ fn main() -> ExitCode {
     }
 }
 
-/// The measured accelerations of sample `k` for `m` inputs: a sum of two
-/// sines each, every 50th value of the last input missing.
-fn accelerations(k: usize, dt: f64, m: usize) -> Vec<f64> {
-    let t = (k + 1) as f64 * dt;
-    (0..m)
-        .map(|i| {
+/// The measurements of sample `k` for the inputs `about` (`(offset, scale)` each): a sum
+/// of two sines each, every 50th value of the last input missing.
+fn accelerations(k: usize, dt: f64, about: &[(f64, f64)]) -> Vec<f64> {
+    let (t, m) = ((k + 1) as f64 * dt, about.len());
+    about
+        .iter()
+        .enumerate()
+        .map(|(i, (offset, scale))| {
             let i = i as f64;
-            0.3 * ((1.7 + 0.8 * i) * t).sin() + 0.1 * ((6.1 + 1.3 * i) * t + 0.4 * i).sin()
+            offset + scale * (0.3 * ((1.7 + 0.8 * i) * t).sin() + 0.1 * ((6.1 + 1.3 * i) * t + 0.4 * i).sin())
         })
         .enumerate()
         .map(|(i, z)| if i == m - 1 && k % 50 == 49 { f64::NAN } else { z })
@@ -70,6 +75,9 @@ fn accelerations(k: usize, dt: f64, m: usize) -> Vec<f64> {
 /// The variables of the FMU by causality, from its model description.
 struct Run {
     inputs: Vec<u32>,
+    /// Per input: the offset and scale of its measurements (`accelerations`).
+    about: Vec<(f64, f64)>,
+    controls: Vec<u32>,
     /// Every Real output, with its name.
     outputs: Vec<(String, u32)>,
     /// Every Real tunable parameter and its start value.
@@ -93,8 +101,11 @@ impl Run {
         let outputs: Vec<u32> = self.outputs.iter().map(|(_, vr)| *vr).collect();
         let mut out = vec![0.0; outputs.len()];
         for k in from..to {
-            let z = accelerations(k, self.dt, self.inputs.len());
+            let z = accelerations(k, self.dt, &self.about);
             Common::set_real(inst, &self.inputs, &z).map_err(|e| format!("inputs {k}: {e}"))?;
+            let t = k as f64 * self.dt;
+            let u: Vec<f64> = (0..self.controls.len()).map(|j| 0.005 * ((1.3 + j as f64) * t).sin()).collect();
+            Common::set_real(inst, &self.controls, &u).map_err(|e| format!("controls {k}: {e}"))?;
             inst.do_step(k as f64 * self.dt, self.dt, true).map_err(|e| format!("step {k}: {e}"))?;
             Common::get_real(inst, &outputs, &mut out).map_err(|e| format!("outputs {k}: {e}"))?;
         }
@@ -111,8 +122,28 @@ fn simulate(path: &str, steps: usize) -> Result<String, String> {
     let md = import.model_description();
     let variables = &md.model_variables.variables;
     let real = |v: &&ScalarVariable| matches!(v.elem, ScalarVariableElement::Real(_));
-    let inputs: Vec<u32> =
-        variables.iter().filter(|v| v.causality == Causality::Input).filter(real).map(|v| v.value_reference).collect();
+    let has_fault_flag = |v: &&ScalarVariable| variables.iter().any(|f| f.name == format!("{}_fault", v.name));
+    let (inputs, controls): (Vec<&ScalarVariable>, Vec<&ScalarVariable>) =
+        variables.iter().filter(|v| v.causality == Causality::Input).filter(real).partition(has_fault_flag);
+    // Measurements about the prior (`prior_<input>`) at a few times the sensor's noise
+    // (`r_<input>_std`) where the FMU has them (S5: a missile at 10 km and 1 km/s, whose
+    // filter diverges on sines about 0), else sines about 0 (S1, S2: oscillators).
+    let start = |name: String| {
+        variables.iter().find(|v| v.name == name).and_then(|v| match &v.elem {
+            ScalarVariableElement::Real(r) => r.start,
+            _ => None,
+        })
+    };
+    let about: Vec<(f64, f64)> = inputs
+        .iter()
+        .map(|v| match start(format!("prior_{}", v.name)) {
+            Some(offset) => (offset, 3.0 * start(format!("r_{}_std", v.name)).unwrap_or(1.0)),
+            None if controls.is_empty() => (0.0, 1.0),
+            None => (f64::NAN, 0.0),
+        })
+        .collect();
+    let (inputs, controls): (Vec<u32>, Vec<u32>) =
+        (inputs.iter().map(|v| v.value_reference).collect(), controls.iter().map(|v| v.value_reference).collect());
     let outputs: Vec<(String, u32)> = variables
         .iter()
         .filter(|v| v.causality == Causality::Output)
@@ -132,7 +163,7 @@ fn simulate(path: &str, steps: usize) -> Result<String, String> {
         return Err(format!("{path}: no Real inputs, outputs or tunable parameters in the model description"));
     }
     let dt = md.default_experiment.as_ref().and_then(|d| d.step_size).ok_or("no default step size")?;
-    let run = Run { inputs, outputs, tunables, substeps: substeps.value_reference, dt };
+    let run = Run { inputs, about, controls, outputs, tunables, substeps: substeps.value_reference, dt };
     let half = steps / 2;
 
     let mut a = import.instantiate_cs("a", false, true).map_err(|e| format!("instantiate a: {e}"))?;
@@ -168,8 +199,9 @@ fn simulate(path: &str, steps: usize) -> Result<String, String> {
     drop((a, b));
     let (name, value) = (&run.outputs[0].0, first[0]);
     Ok(format!(
-        "{path}: {steps} steps of {dt} s to t = {last} with {} inputs; {name} = {value:.6}; {} outputs replayed bit for bit from a state of {} bytes in both instances",
+        "{path}: {steps} steps of {dt} s to t = {last} with {} inputs and {} controls; {name} = {value:.6}; {} outputs replayed bit for bit from a state of {} bytes in both instances",
         run.inputs.len(),
+        run.controls.len(),
         run.outputs.len(),
         bytes.len()
     ))
