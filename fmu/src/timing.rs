@@ -366,11 +366,7 @@ impl Estimation {
         if same {
             return Ok(());
         }
-        // The filter holds the input of its last prediction; a snapshot with the new
-        // input restored is the same belief holding these controls, bit for bit.
-        self.filter.snapshot_into(&mut self.copy);
-        self.copy.input.copy_from_slice(&self.standing);
-        self.filter.restore(&self.copy)?;
+        self.filter.hold_input(&self.standing)?;
         self.sample_controls.copy_from_slice(&self.standing);
         Ok(())
     }

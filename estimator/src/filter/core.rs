@@ -70,6 +70,16 @@ impl<M: Model> Core<M> {
         Ok(())
     }
 
+    /// Checks `u` and holds it for the next update.
+    pub fn hold_input(&mut self, u: &[f64]) -> Result<(), FilterError> {
+        check_len("input u", self.u.len(), u.len())?;
+        if u.iter().any(|v| !v.is_finite()) {
+            return Err(FilterError::NonFinite { stage: Stage::Update, quantity: "input u" });
+        }
+        self.u.copy_from_slice(u);
+        Ok(())
+    }
+
     /// Checks `z`, keeps a copy and selects its usable rows; returns their number.
     pub fn begin_update(&mut self, z: &[f64]) -> Result<usize, FilterError> {
         check_len("measurement z", self.m(), z.len())?;
@@ -166,6 +176,10 @@ macro_rules! core_accessors {
 
         fn set_measurement_variances(&mut self, variances: &[f64]) -> Result<(), crate::error::FilterError> {
             self.core.noise.set_r_diagonal(variances)
+        }
+
+        fn hold_input(&mut self, u: &[f64]) -> Result<(), crate::error::FilterError> {
+            self.core.hold_input(u)
         }
     };
 }

@@ -55,6 +55,11 @@ pub trait StateEstimator {
     fn time(&self) -> f64;
     /// Time update over `dt > 0` with input `u` (held for the next `update`).
     fn predict(&mut self, u: &[f64], dt: f64) -> Result<(), FilterError>;
+    /// Holds the known input `u` for the next `update` in place of the last
+    /// prediction's: a control computer's output changes at a sample, and the
+    /// measurement of that sample (`h(t, x, u)`) sees the new one. The belief is
+    /// otherwise unchanged; a non-finite `u` is refused and changes nothing.
+    fn hold_input(&mut self, u: &[f64]) -> Result<(), FilterError>;
     /// Measurement update. Non-finite entries of `z` (NaN: missing) are left
     /// out and only the other rows are used; a fully missing `z` changes nothing.
     fn update(&mut self, z: &[f64]) -> Result<&Innovation, FilterError>;

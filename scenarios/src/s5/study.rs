@@ -52,7 +52,11 @@ pub fn flight() -> Flight {
 
 /// Flies the study's flight and samples it.
 pub fn simulate(settings: &Settings) -> Truth {
-    let flight = flight();
+    simulate_flight(&flight(), settings)
+}
+
+/// Flies `flight` from the study's start and samples it.
+pub fn simulate_flight(flight: &Flight, settings: &Settings) -> Truth {
     let motion = flight.fly(&start(), settings.sample_time, settings.truth_substeps);
     let mut truth = Truth::default();
     for (k, x) in motion.into_iter().enumerate() {
@@ -176,17 +180,32 @@ pub fn run_filter(
     sample_time: f64,
     checkpoints: &[usize],
 ) -> Result<Estimates, String> {
+    let supervision = estimator::SupervisorSettings::default();
+    run_supervised(kind, tuning, truth, measurements, sample_time, checkpoints, supervision)
+}
+
+/// [`run_filter`] behind a supervisor with these settings.
+pub fn run_supervised(
+    kind: estimator::FilterKind,
+    tuning: &Tuning,
+    truth: &Truth,
+    measurements: &[[f64; 12]],
+    sample_time: f64,
+    checkpoints: &[usize],
+    supervision: estimator::SupervisorSettings,
+) -> Result<Estimates, String> {
     let model = estimator::Discretized::rk4(Missile6Dof { airframe: Airframe::tactical_missile() }, 1);
     let unscented = estimator::UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let mut filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(), unscented)
         .map_err(|e| format!("setup: {e}"))?;
-    let mut supervisor =
-        estimator::Supervisor::new(estimator::SupervisorSettings::default(), 12).map_err(|e| format!("setup: {e}"))?;
+    let mut supervisor = estimator::Supervisor::new(supervision, 12).map_err(|e| format!("setup: {e}"))?;
     let mut estimates = Estimates::default();
     for (k, z) in measurements.iter().enumerate() {
-        // The deflections held over the last interval drive the prediction to this sample.
+        // The deflections held over the last interval drive the prediction to this
+        // sample; those of this sample are what it is measured with (the overloads).
         let predicted = if k == 0 { Ok(()) } else { filter.predict(&truth.deflections[k - 1], sample_time) };
         predicted
+            .and_then(|_| filter.hold_input(&truth.deflections[k]))
             .and_then(|_| supervisor.gate(filter.as_mut(), z).map(|_| ()))
             .map_err(|e| format!("t = {:.3} s (sample {k}): {e}", truth.time[k]))?;
         supervisor.commit(|_| {});
