@@ -14,7 +14,7 @@ use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
 use anyhow::bail;
 
-use crate::{s1, s2};
+use crate::{s1, s2, s5};
 
 /// Command-line arguments of `scenarios reproduce`.
 #[derive(Debug, clap::Args)]
@@ -52,7 +52,7 @@ const STUDIES: [(&str, &str, bool); 5] = [
     ("s2", "wheel-rail vertical forces, 10-DOF vehicle (SRCKF)", true),
     ("s3", "left/right wheel-rail forces, 17-DOF vehicle (SRCKF)", false),
     ("s4", "maglev speed from four PRW channels (fusion + UKF)", false),
-    ("s5", "missile aerodynamic coefficients (SVD-CKF vs CKF)", false),
+    ("s5", "missile aerodynamic coefficients (SVD-CKF vs CKF)", true),
 ];
 
 /// Runs the subcommand; fails if any filter run failed or the study is unknown.
@@ -96,6 +96,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 };
                 settings.validate().map_err(anyhow::Error::msg)?;
                 s2::reproduce::report(&settings, &args.fmu_dir, &args.out)?
+            }
+            "s5" => {
+                let settings = s5::study::Settings { seed: args.seed, ..s5::study::Settings::default() };
+                s5::reproduce::report(&settings, &args.fmu_dir, &args.out)?
             }
             _ => unreachable!("every built study has a table"),
         };

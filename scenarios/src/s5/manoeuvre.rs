@@ -29,6 +29,34 @@ impl Manoeuvre {
         serde_json::from_str(FILE).expect("scenarios/data/s5_manoeuvre.json is a manoeuvre (a unit test reads it)")
     }
 
+    /// No deflection at all for `duration` seconds: a flight that excites nothing.
+    pub fn quiet(duration: f64) -> Self {
+        let none = Controls { delta_x: Vec::new(), delta_y: Vec::new(), delta_z: Vec::new() };
+        Self { duration, change_at: f64::INFINITY, controls: none }
+    }
+
+    /// This manoeuvre flown `times` times in a row, with no change of the coefficients.
+    pub fn repeated(&self, times: usize) -> Self {
+        let repeat = |segments: &[[f64; 3]]| -> Vec<[f64; 3]> {
+            (0..times)
+                .flat_map(|n| {
+                    let offset = n as f64 * self.duration;
+                    segments.iter().map(move |[a, b, d]| [a + offset, b + offset, *d])
+                })
+                .collect()
+        };
+        let c = &self.controls;
+        Self {
+            duration: self.duration * times as f64,
+            change_at: f64::INFINITY,
+            controls: Controls {
+                delta_x: repeat(&c.delta_x),
+                delta_y: repeat(&c.delta_y),
+                delta_z: repeat(&c.delta_z),
+            },
+        }
+    }
+
     /// The deflections `δx, δy, δz` (rad) at `t`: the sum of the segments `[start, end)`
     /// covering it.
     pub fn deflection(&self, t: f64) -> [f64; 3] {

@@ -9,8 +9,11 @@
 //! - The study: sampling, noise, the one tuning, a filter run in-process ([`study`]).
 
 pub mod excitation;
+pub mod fmu_run;
 pub mod manoeuvre;
 pub mod monte_carlo;
 pub mod parameters;
 pub mod plant;
+pub mod reproduce;
+pub mod robustness;
 pub mod study;
