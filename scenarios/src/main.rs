@@ -6,6 +6,7 @@
 //!   scenarios s1-faults [--case stiffness/random] [--shard K/N]
 //!   scenarios s2-sweep [--speeds 40,80,120,160] [--errors 0.05,0.1] [--rates 200,1000] [--seeds 3] [--shard K/N]
 //!   scenarios s5-monte-carlo [--runs 100] [--filters SVD-CKF,CKF] [--shard K/N]
+//!   scenarios s5-robustness [--seeds 5] [--shard K/N]
 //!   scenarios replay < spec.json > estimates.json
 //!   scenarios s1-export --case stiffness/random [--duration 60] [--seed 1] [--noise 0.02] --out s1.csv
 
@@ -32,6 +33,8 @@ enum Command {
     S2Sweep(scenarios::s2::sweep::Args),
     /// Study S5's filters over many noise seeds: error spread, consistency, Cramér–Rao.
     S5MonteCarlo(scenarios::s5::monte_carlo::Args),
+    /// Study S5's filters where they may fail: tiny R, long runs, no excitation.
+    S5Robustness(scenarios::s5::robustness::Args),
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
     /// Write the noisy accelerations and the true load of one S1 case as CSV (an FMU input table).
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
         Command::S1Faults(args) => scenarios::s1_faults::run_command(args),
         Command::S2Sweep(args) => scenarios::s2::sweep::run(args),
         Command::S5MonteCarlo(args) => scenarios::s5::monte_carlo::run(args),
+        Command::S5Robustness(args) => scenarios::s5::robustness::run(args),
         Command::Replay(args) => scenarios::replay::run(args),
         Command::S1Export(args) => scenarios::export::run(args),
     };
