@@ -594,7 +594,13 @@ class FmuEstimator:
         self._fmu.setupExperiment(startTime=0.0)
         self._fmu.enterInitializationMode()
         for name, value in (parameters or {}).items():
-            self._fmu.setReal([variables[name].valueReference], [float(value)])
+            if name not in variables or variables[name].causality != "parameter":
+                raise ValueError(f"{fmu}: no parameter named {name}")
+            # Enumerations (the filter) and Integers go through fmi2SetInteger.
+            if variables[name].type in ("Integer", "Enumeration"):
+                self._fmu.setInteger([variables[name].valueReference], [int(value)])
+            else:
+                self._fmu.setReal([variables[name].valueReference], [float(value)])
         self._fmu.exitInitializationMode()
 
     def __call__(self, t: float, measurements: np.ndarray, deflections: np.ndarray) -> dict:
@@ -618,8 +624,21 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=1, help="the measurement noise's seed")
     parser.add_argument("--duration", type=float, help="seconds (default: the manoeuvre's 20 s)")
     parser.add_argument("--fmu", type=Path, help="an estimator FMU to drive (e.g. kalfmu_s5_missile.fmu)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="an FMU parameter, set before initialisation ends (repeatable; e.g. filter=3)",
+    )
     args = parser.parse_args(argv)
-    estimator = FmuEstimator(args.fmu) if args.fmu else None
+    parameters = {}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        if not value:
+            parser.error(f"--set {item}: expected NAME=VALUE")
+        parameters[name] = float(value)
+    estimator = FmuEstimator(args.fmu, parameters) if args.fmu else None
     try:
         run = fly(args.duration, args.seed, estimator, args.out)
     finally:

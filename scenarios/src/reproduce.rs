@@ -41,6 +41,9 @@ pub struct Args {
     /// Where the packaged FMUs are (`package-fmus` writes them to target/fmu).
     #[arg(long, default_value = "target/fmu")]
     pub fmu_dir: PathBuf,
+    /// The Python that runs S5's JSBSim driver (scripts/setup --tests makes it).
+    #[arg(long, default_value = ".venv/bin/python")]
+    pub python: PathBuf,
     /// Where the logs, reports and recordings go.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -99,7 +102,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
             "s5" => {
                 let settings = s5::study::Settings { seed: args.seed, ..s5::study::Settings::default() };
-                s5::reproduce::report(&settings, &args.fmu_dir, &args.out)?
+                s5::reproduce::report(&settings, &args.fmu_dir, &args.out, &args.python)?
             }
             _ => unreachable!("every built study has a table"),
         };
