@@ -33,9 +33,12 @@ impl CovarianceRoot for CholeskyRoot {
     }
 }
 
-/// `U·√Σ` from the SVD `P = U·Σ·Vᵀ` (Jacobi on the symmetric `P`). Defined for
-/// every finite symmetric `P`: rounding that makes `P` slightly indefinite
-/// costs accuracy in that direction instead of stopping the filter.
+/// `U·√Σ` from the SVD `P = U·Σ·Vᵀ` (Jacobi on the symmetric `P`, see
+/// [`SymmetricEigen`]: one-sided on a pivoted Cholesky factor while `P` is
+/// positive definite, two-sided on `P` otherwise). Defined for every finite
+/// symmetric `P`: rounding that makes `P` slightly indefinite costs accuracy in
+/// that direction instead of stopping the filter. It depends on `P` alone, so
+/// the filter's state is still its mean and covariance.
 #[derive(Debug, Clone)]
 pub struct SvdRoot {
     eigen: SymmetricEigen,

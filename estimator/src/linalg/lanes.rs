@@ -36,6 +36,8 @@ pub(crate) trait Lanes: Copy {
     fn dots_2x2(self, v: [&[f64]; 2], a: [&[f64]; 2]) -> [[f64; 2]; 2];
     /// `x[i] = (x[i] − c₀·v₀[i]) − c₁·v₁[i]`.
     fn sub_scaled_2(self, x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]);
+    /// The plane rotation `(x[i], y[i]) ← (c·x[i] − s·y[i], s·x[i] + c·y[i])`.
+    fn rotate(self, x: &mut [f64], y: &mut [f64], c: f64, s: f64);
     /// `out[i] += Σₜ c[t]·columns[t·ld + i]`, the terms added in order, for
     /// any length of `out`: a linear combination of columns of a column-major
     /// matrix (leading dimension `ld`), kept in registers across the terms.
@@ -131,6 +133,15 @@ impl Lanes for Portable {
     }
 
     #[inline(always)]
+    fn rotate(self, x: &mut [f64], y: &mut [f64], c: f64, s: f64) {
+        for (x, y) in x.chunks_exact_mut(LANES).zip(y.chunks_exact_mut(LANES)) {
+            for l in 0..LANES {
+                (x[l], y[l]) = (c * x[l] - s * y[l], s * x[l] + c * y[l]);
+            }
+        }
+    }
+
+    #[inline(always)]
     fn combine(self, out: &mut [f64], c: &[f64], columns: &[f64], ld: usize) {
         let len = out.len();
         check_columns(c.len(), len, columns, ld);
@@ -195,9 +206,10 @@ pub(crate) use with_avx2;
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m256d, _mm256_add_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,
-        _mm256_hadd_pd, _mm256_loadu_pd, _mm256_permute2f128_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-        _mm256_unpackhi_pd, _mm256_unpacklo_pd, _mm_add_pd, _mm_cvtsd_f64, _mm_unpackhi_pd,
+        __m256d, _mm256_add_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fmsub_pd,
+        _mm256_fnmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_permute2f128_pd, _mm256_set1_pd,
+        _mm256_setzero_pd, _mm256_storeu_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd, _mm_add_pd, _mm_cvtsd_f64,
+        _mm_unpackhi_pd,
     };
 
     use super::{check_columns, check_transpose, Chunk, Lanes, COLUMN_BLOCK, LANES};
@@ -243,6 +255,12 @@ mod avx2 {
         fn sub_scaled_2(self, x: &mut [f64], c: [f64; 2], v: [&[f64]; 2]) {
             // SAFETY: as above.
             unsafe { sub_scaled_2(x, c, v) }
+        }
+
+        #[inline(always)]
+        fn rotate(self, x: &mut [f64], y: &mut [f64], c: f64, s: f64) {
+            // SAFETY: as above.
+            unsafe { rotate(x, y, c, s) }
         }
 
         #[inline(always)]
@@ -385,6 +403,22 @@ mod avx2 {
         }
     }
 
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn rotate(x: &mut [f64], y: &mut [f64], c: f64, s: f64) {
+        let (c, s) = (_mm256_set1_pd(c), _mm256_set1_pd(s));
+        for (x, y) in x.chunks_exact_mut(LANES).zip(y.chunks_exact_mut(LANES)) {
+            let (xv, yv) = (load(x), load(y));
+            // c·x − s·y and s·x + c·y, each with one product fused.
+            let xr =
+                (_mm256_fmsub_pd(c, xv.0, _mm256_mul_pd(s, yv.0)), _mm256_fmsub_pd(c, xv.1, _mm256_mul_pd(s, yv.1)));
+            let yr =
+                (_mm256_fmadd_pd(s, xv.0, _mm256_mul_pd(c, yv.0)), _mm256_fmadd_pd(s, xv.1, _mm256_mul_pd(c, yv.1)));
+            store(x, xr);
+            store(y, yr);
+        }
+    }
+
     /// `R` registers of `out` from `at`, with every term added in them.
     ///
     /// # Safety
@@ -520,6 +554,11 @@ mod tests {
             avx2.sub_scaled_2(&mut x1, [0.37, -1.3], v2);
             Portable.sub_scaled_2(&mut x2, [0.37, -1.3], v2);
             assert!(close(&x1, &x2, 40.0));
+            let (mut x1, mut y1, mut x2, mut y2) = (cols[0].clone(), cols[1].clone(), cols[0].clone(), cols[1].clone());
+            let (c, s) = (0.6, -0.8);
+            avx2.rotate(&mut x1, &mut y1, c, s);
+            Portable.rotate(&mut x2, &mut y2, c, s);
+            assert!(close(&x1, &x2, 20.0) && close(&y1, &y2, 20.0));
         }
         // Every length, so that each register count and the scalar tail run.
         for len in 0..40 {
@@ -567,6 +606,10 @@ mod tests {
         let mut out = [1.0, 2.0, 3.0];
         Portable.combine(&mut out, &[2.0, -1.0, 0.5], &columns, 4);
         assert_eq!(out, [1.0 + 0.0 - 4.0 + 4.0, 2.0 + 2.0 - 5.0 + 4.5, 3.0 + 4.0 - 6.0 + 5.0]);
+        // rotate: (x, y) ← (c·x − s·y, s·x + c·y), here with c = 0, s = 1.
+        let (mut x, mut y) = (a.clone(), b.clone());
+        Portable.rotate(&mut x, &mut y, 0.0, 1.0);
+        assert_eq!((x, y), (b.iter().map(|v| -v).collect(), a));
     }
 
     #[test]

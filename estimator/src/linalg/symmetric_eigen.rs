@@ -1,4 +1,4 @@
-//! Eigen-decomposition of a symmetric matrix by cyclic Jacobi rotations.
+//! Eigen-decomposition of a symmetric matrix by Jacobi rotations.
 //!
 //! For a symmetric `P` this *is* the singular value decomposition the SVD-CKF
 //! asks for: `P = U·Σ·Vᵀ` with `U` the eigenvectors and `Σ = |Λ|` (a negative
@@ -7,13 +7,60 @@
 //! Matrix Anal. Appl. 13(4), 1992), it is accurate to working precision on
 //! small eigenvalues, which is exactly where a covariance goes wrong, and
 //! because it runs in buffers allocated once.
+//!
+//! A positive definite `P` (every covariance a filter keeps, in practice) takes
+//! the fast path of that paper: Cholesky with diagonal pivoting, `Πᵀ·P·Π = L·Lᵀ`,
+//! then one-sided Jacobi rotations of the columns of `X = Π·L` until they are
+//! orthogonal. `X·Xᵀ = P` throughout, so the final columns are the eigenvectors
+//! scaled by `√λ`, and the rotations need not be accumulated. The accuracy is
+//! that of two-sided Jacobi: for `P = D·C·D` (`D` diagonal, `C` well
+//! conditioned) `L = D·L_C`, and a one-sided rotation mixes entries within a
+//! row only, so each row keeps its error relative to its own scale `√P_ii`.
+//! It is faster three ways (`scripts/instructions-per-step`: S2's SVD-CKF step
+//! took 3.7 M instructions with two-sided Jacobi alone, 1.1 M now; the CKF's 0.52 M):
+//!
+//! - `XᵀX = LᵀL` is much nearer diagonal than `P`: the pivoted factor puts its
+//!   weight on the diagonal (Drmač & Veselić, SIAM J. Matrix Anal. Appl. 29(4),
+//!   2008). S2's covariances take 5.2 sweeps on average, the last one only to
+//!   confirm; without the pivoting, 10.7.
+//! - A rotation updates two contiguous columns (padded to whole chunks of
+//!   lanes for the AVX2 kernels) and, by formula, two column norms, where the
+//!   two-sided method updates two rows and two columns of `P` and two
+//!   eigenvectors.
+//! - The pairs are taken by anti-diagonals of the Gram matrix, which lets the
+//!   CPU overlap their long chains of square roots and divisions (see
+//!   [`SymmetricEigen::one_sided`]).
+//!
+//! An indefinite or singular `P` fails the Cholesky factorisation and takes
+//! two-sided cyclic Jacobi on `P` itself, which is defined for every finite
+//! symmetric matrix. Either path depends on `P` alone: nothing is carried
+//! from one call to the next, so a filter's state is its mean and covariance.
 
 use nalgebra::{DMatrix, DVector};
+
+use crate::linalg::lanes::LANES;
+use crate::linalg::{with_avx2, Lanes};
 
 /// Workspace and result of a symmetric eigen-decomposition `A = V·diag(λ)·Vᵀ`.
 #[derive(Debug, Clone)]
 pub struct SymmetricEigen {
+    /// The matrix two-sided rotations diagonalise.
     a: DMatrix<f64>,
+    /// `X` of the positive definite path: `n` columns of `ld` rows, the rows
+    /// past `n` zero.
+    x: Vec<f64>,
+    /// `n` rounded up to whole chunks of lanes.
+    ld: usize,
+    /// `xⱼᵀ·xⱼ` for each column of `x`.
+    norms: Vec<f64>,
+    /// The diagonal of the Schur complement the Cholesky factorisation has left.
+    schur: Vec<f64>,
+    /// The rows the Cholesky factorisation has pivoted on.
+    pivoted: Vec<bool>,
+    /// `−X[π(k), j]` for the columns `j < k` of `X`, as column `k` is formed.
+    coefficients: Vec<f64>,
+    /// `xₚᵀ·x_q` for the pairs of one anti-diagonal `p + q = d`.
+    products: Vec<f64>,
     vectors: DMatrix<f64>,
     values: DVector<f64>,
 }
@@ -27,7 +74,19 @@ const MAX_SWEEPS: usize = 60;
 impl SymmetricEigen {
     /// Buffers for `n × n` matrices.
     pub fn new(n: usize) -> Self {
-        Self { a: DMatrix::zeros(n, n), vectors: DMatrix::zeros(n, n), values: DVector::zeros(n) }
+        let ld = n.div_ceil(LANES) * LANES;
+        Self {
+            a: DMatrix::zeros(n, n),
+            x: vec![0.0; ld * n],
+            ld,
+            norms: vec![0.0; n],
+            schur: vec![0.0; n],
+            pivoted: vec![false; n],
+            coefficients: vec![0.0; n],
+            products: vec![0.0; n / 2],
+            vectors: DMatrix::zeros(n, n),
+            values: DVector::zeros(n),
+        }
     }
 
     /// Eigenvectors, one per column, in the order of [`Self::values`].
@@ -44,6 +103,131 @@ impl SymmetricEigen {
     pub fn decompose(&mut self, m: &DMatrix<f64>) -> Result<(), NotConverged> {
         let n = self.a.nrows();
         debug_assert_eq!(m.shape(), (n, n));
+        if (0..n).any(|j| m.view((j, j), (n - j, 1)).iter().any(|v| !v.is_finite())) {
+            return Err(NotConverged);
+        }
+        with_avx2!(fn<>(lanes, eigen: &mut SymmetricEigen = self, m: &DMatrix<f64> = m) -> Result<(), NotConverged> {
+            if eigen.pivoted_cholesky(lanes, m) {
+                eigen.one_sided(lanes)
+            } else {
+                eigen.two_sided(m)
+            }
+        })
+    }
+
+    /// `Πᵀ·P·Π = L·Lᵀ` with the largest remaining diagonal entry as each pivot,
+    /// written as `X = Π·L` into `x`: column `k` is formed whole, rows in `P`'s
+    /// order, as `P[:, π(k)] − Σⱼ<ₖ X[π(k), j]·X[:, j]`, a combination of
+    /// contiguous columns, so nothing is swapped. `false` when a pivot is not
+    /// positive, i.e. `P` is not numerically positive definite.
+    #[inline(always)]
+    fn pivoted_cholesky<L: Lanes>(&mut self, lanes: L, m: &DMatrix<f64>) -> bool {
+        let (n, ld) = (self.a.nrows(), self.ld);
+        for i in 0..n {
+            self.schur[i] = m[(i, i)];
+        }
+        self.pivoted.fill(false);
+        for k in 0..n {
+            let mut pivot = usize::MAX;
+            for i in (0..n).filter(|&i| !self.pivoted[i]) {
+                if pivot == usize::MAX || self.schur[i] > self.schur[pivot] {
+                    pivot = i;
+                }
+            }
+            let d = self.schur[pivot];
+            if d.is_nan() || d <= 0.0 {
+                return false;
+            }
+            for (j, c) in self.coefficients[..k].iter_mut().enumerate() {
+                *c = -self.x[j * ld + pivot];
+            }
+            let (done, rest) = self.x.split_at_mut(k * ld);
+            let column = &mut rest[..n];
+            for (i, v) in column.iter_mut().enumerate() {
+                *v = if i >= pivot { m[(i, pivot)] } else { m[(pivot, i)] };
+            }
+            lanes.combine(column, &self.coefficients[..k], done, ld);
+            let root = d.sqrt();
+            for (v, &before) in column.iter_mut().zip(&self.pivoted) {
+                // Zero in exact arithmetic: `L` is triangular.
+                *v = if before { 0.0 } else { *v / root };
+            }
+            column[pivot] = root;
+            self.pivoted[pivot] = true;
+            for (s, &v) in self.schur.iter_mut().zip(column.iter()) {
+                *s -= v * v;
+            }
+        }
+        true
+    }
+
+    /// One-sided cyclic Jacobi on the columns of `x` (Hestenes), then the
+    /// eigenpairs `λⱼ = xⱼᵀ·xⱼ`, `vⱼ = xⱼ/√λⱼ`.
+    ///
+    /// The pairs go in row-cyclic order, (0, 1), (0, 2), (1, 2), (0, 3), …, taken
+    /// by anti-diagonals `p + q = d`: a pair depends only on the pairs of smaller
+    /// `d` that share a column with it, and the pairs of one anti-diagonal are
+    /// disjoint, so this is the same sequence of rotations, bit for bit. All
+    /// products of an anti-diagonal are formed first, then its rotations, so the
+    /// chains of dependent operations of its pairs (product, square roots and
+    /// divisions, rotation) overlap in the CPU instead of following one another:
+    /// 1.5× faster than pair after pair.
+    #[inline(always)]
+    fn one_sided<L: Lanes>(&mut self, lanes: L) -> Result<(), NotConverged> {
+        let (n, ld) = (self.a.nrows(), self.ld);
+        // Below `ld·eps` the computed `xₚᵀ·x_q` (a sum of `ld` products, the padding
+        // included) cannot tell the columns from orthogonal: its rounding error reaches
+        // `ld·eps·‖xₚ‖·‖x_q‖`. Against `eps` alone, as the two-sided path tests (where
+        // the rotated entry is set to an exact 0), the rounding a rotation leaves in
+        // the product would be rotated away again and again.
+        let inverse_tolerance = 1.0 / (ld as f64 * f64::EPSILON);
+        for _ in 0..MAX_SWEEPS {
+            // The norms are updated by formula within a sweep and summed afresh for
+            // each, so that the sweep that finds nothing to rotate tests, and
+            // reports, the columns' own norms.
+            for (j, norm) in self.norms.iter_mut().enumerate() {
+                let column = &self.x[j * ld..(j + 1) * ld];
+                *norm = lanes.dot(column, column);
+            }
+            let mut rotated = false;
+            for d in 1..(2 * n).saturating_sub(2) {
+                let pairs = (d.saturating_sub(n - 1)..d.div_ceil(2)).map(|p| (p, d - p));
+                for ((p, q), product) in pairs.clone().zip(&mut self.products) {
+                    *product = lanes.dot(&self.x[p * ld..(p + 1) * ld], &self.x[q * ld..(q + 1) * ld]);
+                }
+                for ((p, q), &apq) in pairs.zip(&self.products) {
+                    let (app, aqq) = (self.norms[p], self.norms[q]);
+                    // The two-sided path's test on the Gram matrix `XᵀX`: |apq| against
+                    // √(app·aqq), squared.
+                    let scaled = apq * inverse_tolerance;
+                    if apq != 0.0 && scaled * scaled > app * aqq {
+                        let (c, s, t) = rotation(app, aqq, apq);
+                        let [xp, xq] =
+                            self.x.get_disjoint_mut([p * ld..(p + 1) * ld, q * ld..(q + 1) * ld]).expect("p < q");
+                        lanes.rotate(xp, xq, c, s);
+                        self.norms[p] = app - t * apq;
+                        self.norms[q] = aqq + t * apq;
+                        rotated = true;
+                    }
+                }
+            }
+            if !rotated {
+                for j in 0..n {
+                    let inverse_sigma = 1.0 / self.norms[j].sqrt();
+                    self.values[j] = self.norms[j];
+                    for (i, &v) in self.x[j * ld..j * ld + n].iter().enumerate() {
+                        self.vectors[(i, j)] = v * inverse_sigma;
+                    }
+                }
+                return Ok(());
+            }
+        }
+        Err(NotConverged)
+    }
+
+    /// Two-sided cyclic Jacobi on `m` itself.
+    fn two_sided(&mut self, m: &DMatrix<f64>) -> Result<(), NotConverged> {
+        let n = self.a.nrows();
         for j in 0..n {
             for i in j..n {
                 self.a[(i, j)] = m[(i, j)];
@@ -51,9 +235,6 @@ impl SymmetricEigen {
             }
         }
         self.vectors.fill_with_identity();
-        if self.a.iter().any(|v| !v.is_finite()) {
-            return Err(NotConverged);
-        }
         for _ in 0..MAX_SWEEPS {
             // Demmel & Veselić's criterion: a pair is negligible when small against the
             // geometric mean of its own diagonal entries, not against the whole matrix.
@@ -86,11 +267,7 @@ impl SymmetricEigen {
         if apq == 0.0 {
             return;
         }
-        let tau = (self.a[(q, q)] - self.a[(p, p)]) / (2.0 * apq);
-        let t =
-            if tau >= 0.0 { 1.0 / (tau + (1.0 + tau * tau).sqrt()) } else { -1.0 / (-tau + (1.0 + tau * tau).sqrt()) };
-        let c = 1.0 / (1.0 + t * t).sqrt();
-        let s = t * c;
+        let (c, s, _) = rotation(self.a[(p, p)], self.a[(q, q)], apq);
         let n = self.a.nrows();
         // A ← Jᵀ·A·J on rows/columns p and q.
         for k in 0..n {
@@ -136,6 +313,18 @@ impl SymmetricEigen {
     pub fn max_abs_value(&self) -> f64 {
         self.values.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
     }
+}
+
+/// The cosine `c`, sine `s` and tangent `t` of the rotation that annihilates
+/// `apq` in the symmetric 2 × 2 matrix `[app apq; apq aqq]`, the smaller of the
+/// two angles that do (Golub & Van Loan, alg. 8.5.1); the rotated diagonal is
+/// `app − t·apq`, `aqq + t·apq`.
+#[inline(always)]
+fn rotation(app: f64, aqq: f64, apq: f64) -> (f64, f64, f64) {
+    let tau = (aqq - app) / (2.0 * apq);
+    let t = if tau >= 0.0 { 1.0 / (tau + (1.0 + tau * tau).sqrt()) } else { -1.0 / (-tau + (1.0 + tau * tau).sqrt()) };
+    let c = 1.0 / (1.0 + t * t).sqrt();
+    (c, t * c, t)
 }
 
 #[cfg(test)]
@@ -207,5 +396,87 @@ mod tests {
         let mut e = SymmetricEigen::new(2);
         let m = DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, f64::NAN, 1.0]);
         assert_eq!(e.decompose(&m), Err(NotConverged));
+    }
+
+    /// A positive definite `n × n` matrix with eigenvalues from 1e-2 to 1e2 and a
+    /// dense eigenvector matrix.
+    fn positive_definite(n: usize) -> DMatrix<f64> {
+        let b =
+            DMatrix::from_fn(n, n, |i, j| (((i * 7 + j * 3) % 11) as f64 - 5.0) / 3.0 + if i == j { 4.0 } else { 0.0 });
+        let q = b.qr().q();
+        let lambda =
+            DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| 10f64.powf(-2.0 + 4.0 * i as f64 / (n - 1) as f64)));
+        let p = &q * lambda * q.transpose();
+        (&p + p.transpose()) / 2.0
+    }
+
+    #[test]
+    fn a_positive_definite_matrix_gets_orthonormal_vectors_and_its_eigenvalues() {
+        let n = 20;
+        let p = positive_definite(n);
+        let mut e = SymmetricEigen::new(n);
+        e.decompose(&p).unwrap();
+        let v = e.vectors();
+        assert!((v.transpose() * v - DMatrix::identity(n, n)).norm() < 1e-13);
+        let rebuilt = v * DMatrix::from_diagonal(e.values()) * v.transpose();
+        assert!((rebuilt - &p).norm() < 1e-13 * p.norm());
+        // Against the two-sided path on the same matrix (n = 20, not a whole number of
+        // chunks of lanes), to rounding.
+        let mut two_sided = SymmetricEigen::new(n);
+        two_sided.two_sided(&p).unwrap();
+        let sorted = |e: &SymmetricEigen| {
+            let mut values: Vec<f64> = e.values().iter().copied().collect();
+            values.sort_by(f64::total_cmp);
+            values
+        };
+        for (a, b) in sorted(&e).iter().zip(&sorted(&two_sided)) {
+            assert!((a - b).abs() < 1e-13 * p.norm(), "{a:e} against {b:e}");
+        }
+    }
+
+    #[test]
+    fn a_decomposition_depends_on_its_matrix_alone() {
+        // What a filter saves is its mean and covariance: the square root of P must not
+        // depend on the matrices decomposed before it.
+        let n = 20;
+        let (first, second) = (positive_definite(n), positive_definite(n).map(|v| 2.0 * v + 1e-3));
+        let mut used = SymmetricEigen::new(n);
+        used.decompose(&first).unwrap();
+        used.decompose(&second).unwrap();
+        let mut fresh = SymmetricEigen::new(n);
+        fresh.decompose(&second).unwrap();
+        assert_eq!(used.vectors(), fresh.vectors());
+        assert_eq!(used.values(), fresh.values());
+    }
+
+    #[test]
+    fn an_indefinite_matrix_gets_the_magnitudes_of_its_eigenvalues() {
+        // diag(4, −1) turned by 30°: the SVD square root is U·diag(2, 1).
+        let (c, s) = (3f64.sqrt() / 2.0, 0.5);
+        let u = DMatrix::from_row_slice(2, 2, &[c, -s, s, c]);
+        let m = &u * DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, -1.0])) * u.transpose();
+        let mut e = SymmetricEigen::new(2);
+        e.decompose(&m).unwrap();
+        assert!((e.min_value() + 1.0).abs() < 1e-14 && (e.max_abs_value() - 4.0).abs() < 1e-14);
+        let mut r = DMatrix::zeros(2, 2);
+        e.write_svd_square_root(&mut r);
+        let expected = &u * DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, 1.0])) * u.transpose();
+        assert!((&r * r.transpose() - expected).norm() < 1e-14);
+    }
+
+    #[test]
+    fn the_portable_path_agrees_with_the_avx2_path_to_rounding() {
+        let n = 20;
+        let p = positive_definite(n);
+        let mut portable = SymmetricEigen::new(n);
+        assert!(portable.pivoted_cholesky(crate::linalg::Portable, &p));
+        portable.one_sided(crate::linalg::Portable).unwrap();
+        let mut e = SymmetricEigen::new(n);
+        e.decompose(&p).unwrap();
+        let (mut r1, mut r2) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
+        portable.write_svd_square_root(&mut r1);
+        e.write_svd_square_root(&mut r2);
+        // The same rotations in the same order: the columns agree up to rounding.
+        assert!((&r1 - &r2).norm() < 1e-12 * r2.norm(), "{:e}", (&r1 - &r2).norm() / r2.norm());
     }
 }
