@@ -58,14 +58,12 @@ pub fn cramer_rao(
             plus.iter().zip(&minus).map(|(a, b)| std::array::from_fn(|i| (a[i] - b[i]) / (2.0 * step))).collect(),
         );
     }
-    let mut information = DMatrix::<f64>::zeros(20, 20);
-    for k in 0..count {
-        for i in 0..12 {
-            let weight = 1.0 / (noise_scale * SENSOR_STD[i]).powi(2);
-            let row = DVector::from_fn(20, |p, _| sensitivities[p][k][i]);
-            information += weight * &row * row.transpose();
-        }
-    }
+    // Σ over the samples and the sensors of sₚ·s_q / σ².
+    let weights = SENSOR_STD.map(|s| 1.0 / (noise_scale * s).powi(2));
+    let information = DMatrix::from_fn(20, 20, |p, q| {
+        let terms = sensitivities[p].iter().zip(&sensitivities[q]);
+        terms.map(|(a, b)| (0..12).map(|i| weights[i] * a[i] * b[i]).sum::<f64>()).sum::<f64>()
+    });
     // Scaled to unit diagonal before inverting: the parameters span ten orders of magnitude.
     let d = DVector::from_fn(20, |p, _| information[(p, p)].sqrt());
     if d.iter().any(|v| v.is_nan() || *v <= 0.0) {

@@ -27,6 +27,10 @@ pub struct Args {
     pub shard: Shard,
 }
 
+/// A run's end: the worst coefficient, its relative error and its error over σ; or why
+/// the filter failed.
+type Outcome = Result<(usize, f64, f64), String>;
+
 /// One condition of the sweep.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Condition {
@@ -129,7 +133,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     for (c, condition) in Condition::ALL.iter().enumerate() {
         for filter in FilterKind::ALL {
-            let cell: Vec<&(usize, Result<(usize, f64, f64), String>)> =
+            let cell: Vec<&(usize, Outcome)> =
                 results.iter().filter(|(j, _)| jobs[*j].0 == c && jobs[*j].1 == filter).collect();
             if cell.is_empty() {
                 continue;

@@ -75,7 +75,7 @@ pub fn simulate_flight(flight: &Flight, settings: &Settings) -> Truth {
 
 /// Adds each sensor's seeded white noise (`SENSOR_STD` × `scale`).
 pub fn measure(truth: &Truth, scale: f64, seed: u64) -> Vec<[f64; 12]> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x55_55_0005);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5555_0005);
     truth
         .measurements
         .iter()
