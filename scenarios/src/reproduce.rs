@@ -9,10 +9,11 @@
 use std::path::{Path, PathBuf};
 
 use analyzer::compare::{compare_runs, Comparison};
+use analyzer::read::Channel;
 use analyzer::read::Run;
 use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
-use anyhow::bail;
+use anyhow::{bail, Context};
 
 use crate::{s1, s2, s5};
 
@@ -126,6 +127,24 @@ pub(crate) fn compare_case<'a>(
     comparison.write_json(&stem.with_extension("json"))?;
     write_rrd(&comparison, runs, &recording)?;
     Ok((comparison, recording))
+}
+
+/// The signals `names` of `channel`, one row per sample.
+pub(crate) fn rows_of<const N: usize>(channel: &Channel, names: [&str; N]) -> anyhow::Result<Vec<[f64; N]>> {
+    let columns: Vec<&[f64]> = names
+        .iter()
+        .map(|n| {
+            channel.signal(n).map(|s| s.values.as_slice()).with_context(|| format!("{} has no {n}", channel.topic))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    Ok((0..channel.time.len()).map(|k| std::array::from_fn(|i| columns[i][k])).collect())
+}
+
+/// The largest difference between two runs' rows, entry by entry: how far an FMU's
+/// outputs are from the same filter in-process. An error if their lengths differ.
+pub(crate) fn largest_difference<const N: usize>(a: &[[f64; N]], b: &[[f64; N]]) -> anyhow::Result<f64> {
+    anyhow::ensure!(a.len() == b.len(), "{} samples against {}", a.len(), b.len());
+    Ok(a.iter().zip(b).flat_map(|(x, y)| x.iter().zip(y).map(|(u, v)| (u - v).abs())).fold(0.0, f64::max))
 }
 
 /// The log of one filter's run of a case: `<stem>_<filter>.mcap`, e.g. `weld_srckf.mcap`.

@@ -24,7 +24,6 @@ use std::path::Path;
 
 use analyzer::log::{ESTIMATE, PREDICTION};
 use analyzer::read::read_log;
-use analyzer::read::Run;
 use analyzer::report::{analyse, Options, PairReport};
 use anyhow::Context;
 use estimator::FilterKind;
@@ -34,7 +33,7 @@ use super::parameters::Vehicle;
 use super::study::{as_built, measure, run_filter, simulate, user_vehicle, Case, Settings, Tuning};
 use crate::cosimulation::Counts;
 use crate::fmu_driver::ImportedFmu;
-use crate::reproduce::{compare_case, log_path};
+use crate::reproduce::{compare_case, largest_difference, log_path, rows_of};
 
 /// The settling time before the figures are taken (s).
 const SETTLE: f64 = 0.5;
@@ -176,7 +175,8 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
             let fmu_run = fmu_run::run(&fmu, kind, &sim, &log).and_then(|counts| Ok((counts, read_log(&log)?)));
             let checked = fmu_run.and_then(|(counts, run)| {
                 let library = run_filter(kind, vehicle, &tuning, &measurements).map_err(anyhow::Error::msg)?;
-                let difference = largest_difference(&run, &library.forces)?;
+                let logged = rows_of(run.channel(ESTIMATE)?, ["F_N1", "F_N2", "F_N3", "F_N4"])?;
+                let difference = largest_difference(&logged, &library.forces)?;
                 Ok((counts, run, difference))
             });
             match checked {
@@ -265,23 +265,6 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         println!("  {}", recording.display());
     }
     Ok(failures)
-}
-
-/// The largest difference between a run's logged forces (`/estimate`) and `forces` (N).
-fn largest_difference(run: &Run, forces: &[[f64; 4]]) -> anyhow::Result<f64> {
-    let estimate = run.channel(ESTIMATE)?;
-    let mut largest: f64 = 0.0;
-    for (j, name) in ["F_N1", "F_N2", "F_N3", "F_N4"].into_iter().enumerate() {
-        let logged = estimate.signal(name).with_context(|| format!("{ESTIMATE} has no {name}"))?;
-        anyhow::ensure!(
-            logged.values.len() == forces.len(),
-            "{ESTIMATE} has {} samples, not {}",
-            logged.values.len(),
-            forces.len()
-        );
-        largest = logged.values.iter().zip(forces).map(|(v, f)| (v - f[j]).abs()).fold(largest, f64::max);
-    }
-    Ok(largest)
 }
 
 /// The weld's peak error as a percentage; the other cases have none.

@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use analyzer::log::{ESTIMATE, TRUTH};
-use analyzer::read::{read_log, Channel};
+use analyzer::read::read_log;
 use analyzer::report::Options;
 use anyhow::Context;
 use estimator::FilterKind;
@@ -20,7 +20,7 @@ use super::fmu_run::{self, IDENTIFIER};
 use super::parameters::{NAMES, PAPER_SVD_CKF_AFTER, PAPER_SVD_CKF_BEFORE};
 use super::study::{measure, run_filter, simulate, Settings, Tuning};
 use crate::fmu_driver::{filter_enumeration, ImportedFmu};
-use crate::reproduce::{compare_case, log_path};
+use crate::reproduce::{compare_case, largest_difference, log_path, rows_of};
 
 /// The metrics, the ±2σ coverage and the spectra of the recordings are taken from here
 /// on (s): the filters' start-up left out.
@@ -42,24 +42,6 @@ struct Checked {
     difference: f64,
     /// Measurement rows the FMU's gate rejected.
     rejected: i32,
-}
-
-/// The ten coefficients of `channel`, sample by sample (its first `samples`).
-fn coefficients_of(channel: &Channel, samples: usize) -> anyhow::Result<Vec<[f64; 10]>> {
-    let columns: Vec<&[f64]> = NAMES
-        .iter()
-        .map(|n| {
-            let signal = channel.signal(n).with_context(|| format!("{} has no {n}", channel.topic))?;
-            anyhow::ensure!(
-                signal.values.len() >= samples,
-                "{} has {} samples of {n}, not {samples}",
-                channel.topic,
-                signal.values.len()
-            );
-            Ok(signal.values.as_slice())
-        })
-        .collect::<anyhow::Result<_>>()?;
-    Ok((0..samples).map(|k| std::array::from_fn(|i| columns[i][k])).collect())
 }
 
 /// Runs S5 through its FMU for both truths and prints the tables; `python` runs the
@@ -90,14 +72,10 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
         let log = log_path(&stem, kind);
         let through_fmu = fmu_run::run(&fmu, kind, settings, &truth, &measurements, &log).and_then(|counts| {
             let run = read_log(&log)?;
-            let coefficients = coefficients_of(run.channel(ESTIMATE)?, truth.time.len())?;
+            let coefficients = rows_of(run.channel(ESTIMATE)?, NAMES)?;
             let library = run_filter(kind, &tuning, &truth, &measurements, settings.sample_time, &[])
                 .map_err(anyhow::Error::msg)?;
-            let difference = coefficients
-                .iter()
-                .zip(&library.coefficients)
-                .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-                .fold(0.0, f64::max);
+            let difference = largest_difference(&coefficients, &library.coefficients)?;
             logs.push(run);
             let checked = Some(Checked { difference, rejected: counts.rejected });
             Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked })
@@ -164,12 +142,10 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
                 let (truth, estimate) = (run.channel(TRUTH)?, run.channel(ESTIMATE)?);
                 let samples = estimate.time.len().min(truth.time.len());
                 time = estimate.time[..samples].to_vec();
-                let filter_run = FilterRun {
-                    kind,
-                    coefficients: coefficients_of(estimate, samples)?,
-                    truth: coefficients_of(truth, samples)?,
-                    checked: None,
-                };
+                let (mut coefficients, mut true_values) = (rows_of(estimate, NAMES)?, rows_of(truth, NAMES)?);
+                coefficients.truncate(samples);
+                true_values.truncate(samples);
+                let filter_run = FilterRun { kind, coefficients, truth: true_values, checked: None };
                 logs.push(run);
                 Ok(filter_run)
             });
