@@ -95,13 +95,18 @@ def s2_fmu(fmu_dir) -> Path:
     yield packaged(fmu_dir, "kalfmu_s2_wheel_rail")
 
 
+@pytest.fixture(scope="session")
+def s5_fmu(fmu_dir) -> Path:
+    """Path of kalfmu_s5_missile.fmu."""
+    yield packaged(fmu_dir, "kalfmu_s5_missile")
+
+
 #: Every estimator FMU, by the short name its parametrised tests carry in their ids.
 FMUS = {"s1": "kalfmu_s1_load", "s2": "kalfmu_s2_wheel_rail", "s5": "kalfmu_s5_missile"}
 
-#: The FMUs the generic behavioural tests (`case`) drive: every input a
-#: measurement with its `r_<input>_std`. S5's controls (known inputs, never
-#: missing) are not taught to them yet; its static checks run through `any_fmu`.
-CASE_FMUS = ["s1", "s2"]
+#: The FMUs the generic behavioural tests (`case`) drive: each input is a
+#: measurement with its `r_<input>_std` or a control (S5's deflections).
+CASE_FMUS = list(FMUS)
 
 
 @pytest.fixture(scope="session", params=list(FMUS))

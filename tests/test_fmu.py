@@ -1,14 +1,14 @@
 """The packaged estimator FMUs driven through fmpy, as an importer drives them:
-what holds for every FMU (parametrised over S1 `kalfmu_s1_load.fmu` and S2
-`kalfmu_s2_wheel_rail.fmu`, test ids `s1`, `s2`), and S1 against the library
-run in-process.
+what holds for every FMU (parametrised over S1 `kalfmu_s1_load.fmu`, S2
+`kalfmu_s2_wheel_rail.fmu` and S5 `kalfmu_s5_missile.fmu`, test ids `s1`,
+`s2`, `s5`), and S1 against the library run in-process.
 
 What is specified here for every FMU:
 
 - the FMU passes both static checkers (fmpy's validation, fmutool -check),
   and its shared library links only libc, libm and libgcc_s;
 - step by step (`fmpy.fmi2.FMU2Slave`; S1 on the study's table, S2 on a
-  vehicle at rest): illegal calls are refused and leave the instance as it
+  vehicle at rest, S5 on the study's flight with its deflections): illegal calls are refused and leave the instance as it
   was, instances are independent, FMU states roll back and restore in a new
   instance exactly, NaN inputs are skipped, counted and reported once per
   input, tunable parameters change between steps and fixed ones do not, a
@@ -379,7 +379,13 @@ class Slave:
         # What the FMU-generic tests drive and watch, found in the model description.
         self.dt = float(md.defaultExperiment.stepSize)  # the default sample_time
         self.input_names = [v.name for v in md.modelVariables if v.causality == "input"]
-        self.sensors = [f"r_{n}_std" for n in self.input_names]  # each input's noise std (tunable)
+        # The measurements are the inputs with a sensor noise std (tunable); the rest
+        # are controls (S5's deflections), known and held, never missing. Rows of
+        # inputs hold the measurements first, as the model descriptions order them.
+        self.measurements = [n for n in self.input_names if f"r_{n}_std" in self.vr]
+        self.controls = [n for n in self.input_names if n not in self.measurements]
+        assert self.input_names == self.measurements + self.controls
+        self.sensors = [f"r_{n}_std" for n in self.measurements]
         self.estimates = [
             v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real" and v.name != "nis"
         ]  # every estimate and standard deviation
@@ -429,7 +435,8 @@ class Slave:
         return self.fmu.getReal([self.vr[k] for k in names])
 
     def inputs(self, z) -> None:
-        """Sets every input, in the order of the model description."""
+        """Sets every input, in the order of the model description (the
+        measurements, then the controls)."""
         self.fmu.setReal([self.vr[n] for n in self.input_names], [float(x) for x in z])
 
     def step(self, h: float | None = None) -> None:
@@ -459,6 +466,11 @@ class Slave:
             self.step()
             after.append(self.outputs())
         return at, after
+
+    def unmeasured(self, z) -> list[float]:
+        """The inputs `z` with every measurement missing (NaN), the controls as they are."""
+        m = len(self.measurements)
+        return [math.nan] * m + [float(x) for x in z[m:]]
 
     def free(self) -> None:
         if not self.freed:
@@ -492,29 +504,68 @@ def sensor(table: S1Table) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class Case:
-    """One FMU and accelerations to drive it with: row k of `z` is measured at
-    k·sample_time (the default), by sensors of the noise `sensor`."""
+    """One FMU and inputs to drive it with: row k of `z` (the measurements,
+    then the controls) is set at k·sample_time (the default), measured by
+    sensors of the noise `sensor`; `other` is a second sequence of inputs,
+    different from `z`, for a second instance."""
 
     unzipped: Path
     model_description: object
     z: np.ndarray
+    other: np.ndarray
     sensor: dict[str, float]
+
+
+@dataclass(frozen=True)
+class S5Table:
+    """`scenarios s5-export`: row k is set at time[k] = k·dt."""
+
+    time: np.ndarray
+    input_names: list[str]  # the twelve measurements, then the three deflections
+    inputs: np.ndarray  # (n, 15)
+    truth: dict[str, np.ndarray]  # each coefficient in force from time[k]
+    sensor: dict[str, float]  # the sensors' noise std, by FMU parameter (r_<name>_std)
+
+
+def read_s5_table(path: Path) -> S5Table:
+    lines = path.read_text().splitlines()
+    meta = dict(line[2:].split(" = ", 1) for line in lines if line.startswith("# ") and " = " in line)
+    body = [line for line in lines if not line.startswith("#")]
+    header = body[0].split(",")
+    assert header[0] == "time" and header[13:16] == ["delta_x", "delta_y", "delta_z"], header
+    data = np.loadtxt(body[1:], delimiter=",", ndmin=2)
+    truth = {name[5:]: data[:, j] for j, name in enumerate(header) if name.startswith("true_")}
+    sensor = {k: float(v) for k, v in meta.items() if k.startswith("r_")}
+    return S5Table(data[:, 0], header[1:16], data[:, 1:16], truth, sensor)
 
 
 @pytest.fixture(scope="module", params=CASE_FMUS)
 def case(request, fmu_dir, tmp_path_factory) -> Case:
-    """Each FMU in turn (test ids s1, s2): S1 with the study's table
-    (stiffness/random), S2 with a vehicle at rest (the sensors' noise only,
-    0.01 m/s²; a constant input would read as a stuck sensor)."""
+    """Each FMU in turn (test ids s1, s2, s5): S1 with the study's table
+    (stiffness/random); S2 with a vehicle at rest (the sensors' noise only,
+    0.01 m/s²; a constant input would read as a stuck sensor); S5 with the
+    first 5 s of the study's flight (`scenarios s5-export`), whose start is
+    the FMU's default prior, and the same flight measured with other noise."""
     fmu = packaged(fmu_dir, FMUS[request.param])
     md = read_model_description(str(fmu))
     unzipped = Path(extract(str(fmu), str(tmp_path_factory.mktemp(f"unzipped-{request.param}"))))
     if request.param == "s1":
         table = request.getfixturevalue("s1_table")
-        return Case(unzipped, md, table.z, sensor(table))
+        return Case(unzipped, md, table.z, -0.5 * table.z[300:], sensor(table))
+    if request.param == "s5":
+        scenarios_bin = request.getfixturevalue("scenarios_bin")
+        tables = tmp_path_factory.mktemp("s5")
+        for seed in (1, 2):
+            subprocess.run(
+                [str(scenarios_bin), "s5-export", "--duration", str(DURATION), "--seed", str(seed)]
+                + ["--out", str(tables / f"seed{seed}.csv")],
+                check=True,
+            )
+        table, other = (read_s5_table(tables / f"seed{seed}.csv") for seed in (1, 2))
+        return Case(unzipped, md, table.inputs, other.inputs, table.sensor)
     inputs = [v.name for v in md.modelVariables if v.causality == "input"]
     z = 0.01 * np.random.default_rng(5).standard_normal((1001, len(inputs)))
-    return Case(unzipped, md, z, {f"r_{n}_std": 0.01 for n in inputs})
+    return Case(unzipped, md, z, -0.5 * z[300:], {f"r_{n}_std": 0.01 for n in inputs})
 
 
 @pytest.fixture
@@ -658,7 +709,7 @@ def test_an_illegal_call_is_refused_and_changes_nothing(bad_call, case_slave, ca
 def test_interleaved_instances_are_independent(case_slave, case):
     """Two instances with different inputs and noise, stepped alternately, give
     exactly what each gives when run alone."""
-    za, zb = case.z[:150], -0.5 * case.z[300:450]
+    za, zb = case.z[:150], case.other[:150]
     noisier = {name: 2.5 * std for name, std in case.sensor.items()}
     a_alone = case_slave("a-alone")
     a_alone.initialize(**case.sensor)
@@ -722,13 +773,14 @@ def test_a_serialized_state_continues_identically_in_a_new_instance(case_slave, 
     assert not fresh.errors()
 
 
-def with_gaps(z: np.ndarray) -> np.ndarray:
+def with_gaps(z: np.ndarray, measurements: int | None = None) -> np.ndarray:
     """The first 120 rows of `z` with the first input missing in rows 10-19,
-    the second in rows 40-44, and every input in rows 60-69."""
+    the second in rows 40-44, and every measurement (the first `measurements`
+    columns; by default all) in rows 60-69."""
     z = z[:120].copy()
     z[10:20, 0] = np.nan
     z[40:45, 1] = np.nan
-    z[60:70, :] = np.nan  # every input: prediction only
+    z[60:70, :measurements] = np.nan  # every measurement: prediction only
     return z
 
 
@@ -738,20 +790,20 @@ def test_nan_inputs_are_skipped_counted_and_never_reach_the_outputs(case_slave, 
     missing), every output stays finite, filter_healthy stays true, and a
     stretch without any input loses information (the first estimate's
     standard deviation grows through it)."""
-    z = with_gaps(case.z)
     slave = case_slave()
+    z = with_gaps(case.z, len(slave.measurements))
     slave.initialize(**case.sensor)
     out = np.array(slave.run(z))
     assert np.all(np.isfinite(out))
     skipped, healthy = out[:, -2], out[:, -1]
     assert list(skipped) == list(np.cumsum(np.isnan(z).sum(axis=1)))
-    assert skipped[-1] == 10 + 5 + 10 * len(slave.input_names)
+    assert skipped[-1] == 10 + 5 + 10 * len(slave.measurements)
     assert np.all(healthy == 1)
     assert slave.fmu.getBoolean([slave.vr["filter_healthy"]]) == [1]
     std = out[:, slave.real_outputs.index(slave.vr[f"{slave.estimate}_std"])]
     assert np.all(np.diff(std[60:70]) > 0)
     missing = [m for m in slave.warnings() if "treated as missing" in m]
-    assert [m.split()[1] for m in missing] == slave.input_names, missing
+    assert [m.split()[1] for m in missing] == slave.measurements, missing
 
 
 def test_a_tunable_parameter_changes_between_steps_a_fixed_one_does_not(case_slave, case):
@@ -809,7 +861,6 @@ def test_a_step_of_several_samples_predicts_through_the_samples_inside_it(case_s
     coarse, fine = case_slave("coarse"), case_slave("fine")
     for slave in (coarse, fine):
         slave.initialize(**case.sensor)
-    missing = [math.nan] * len(coarse.input_names)
     for k in range(0, 80, 4):
         z = case.z[k]
         coarse.inputs(z)
@@ -817,7 +868,7 @@ def test_a_step_of_several_samples_predicts_through_the_samples_inside_it(case_s
         fine.inputs(z)
         fine.step()
         for _ in range(3):
-            fine.inputs(missing)
+            fine.inputs(fine.unmeasured(z))
             fine.step()
         assert coarse.get(*coarse.estimates) == fine.get(*fine.estimates), k
     assert not coarse.warnings() and not coarse.errors()
@@ -837,7 +888,7 @@ def test_a_step_between_samples_warns_once_and_reads_the_prediction_to_its_end(c
     std, dt = f"{odd.estimate}_std", odd.dt
     even.step()
     std_at_1 = even.get(std)[0]
-    even.inputs([math.nan] * len(even.input_names))
+    even.inputs(even.unmeasured(case.z[0]))
     even.step()
     std_at_2 = even.get(std)[0]
 

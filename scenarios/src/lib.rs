@@ -2,7 +2,6 @@
 //! the physical laws and the filters; the filters never see the truth.
 
 pub mod cosimulation;
-pub mod export;
 pub mod fmu_driver;
 pub mod jobs;
 pub mod replay;

@@ -9,6 +9,7 @@
 //!   scenarios s5-robustness [--seeds 5] [--shard K/N]
 //!   scenarios replay < spec.json > estimates.json
 //!   scenarios s1-export --case stiffness/random [--duration 60] [--seed 1] [--noise 0.02] --out s1.csv
+//!   scenarios s5-export [--duration 20] [--seed 1] --out s5.csv
 
 use std::process::ExitCode;
 
@@ -38,7 +39,9 @@ enum Command {
     /// Run one filter on measurements given as JSON (stdin), write estimates as JSON (stdout).
     Replay(scenarios::replay::Args),
     /// Write the noisy accelerations and the true load of one S1 case as CSV (an FMU input table).
-    S1Export(scenarios::export::Args),
+    S1Export(scenarios::s1::export::Args),
+    /// Write the noisy measurements, the deflections and the true coefficients of the S5 flight as CSV.
+    S5Export(scenarios::s5::export::Args),
 }
 
 fn main() -> ExitCode {
@@ -51,7 +54,8 @@ fn main() -> ExitCode {
         Command::S5MonteCarlo(args) => scenarios::s5::monte_carlo::run(args),
         Command::S5Robustness(args) => scenarios::s5::robustness::run(args),
         Command::Replay(args) => scenarios::replay::run(args),
-        Command::S1Export(args) => scenarios::export::run(args),
+        Command::S1Export(args) => scenarios::s1::export::run(args),
+        Command::S5Export(args) => scenarios::s5::export::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

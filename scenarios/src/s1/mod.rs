@@ -11,6 +11,7 @@
 //! sees only those noisy accelerations; the estimated load is compared with
 //! the true one ([`analyzer::metrics`]).
 
+pub mod export;
 pub mod faults;
 pub mod fmu_run;
 pub mod load;

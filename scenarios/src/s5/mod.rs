@@ -9,6 +9,7 @@
 //! - The study: sampling, noise, the one tuning, a filter run in-process ([`study`]).
 
 pub mod excitation;
+pub mod export;
 pub mod fmu_run;
 pub mod manoeuvre;
 pub mod monte_carlo;
