@@ -357,18 +357,54 @@ def test_jsbsim_on_a_flat_still_planet_is_the_docs_equations(tmp_path):
         assert d[name] < bound, (name, d[name])
 
 
+def logged_metadata(log: Path) -> dict:
+    """The metadata `kalfmu` of an MCAP log."""
+    from mcap.reader import make_reader
+
+    with open(log, "rb") as f:
+        return {m.name: m.metadata for m in make_reader(f).iter_metadata()}["kalfmu"]
+
+
 def test_an_fmu_plugs_in_as_the_estimator(s1_fmu, tmp_path):
     """`FmuEstimator` drives a packaged FMU at each sample (set the inputs of t, read,
-    step 5 ms). The S5 FMU does not exist yet: S1's stands in, fed two of our signals."""
+    step 5 ms): here S1's, fed two of our signals. The run's `filter` is the kind the FMU
+    runs (S1's default, SRCKF), named as our own runs name it; `fmu` is the FMU."""
     estimator = fly.FmuEstimator(s1_fmu, inputs={"z1_ddot": "Nx", "z2_ddot": "Ny"})
     try:
         r = fly.fly(0.2, estimator=estimator, log=tmp_path / "s1_fmu.mcap")
     finally:
         estimator.close()
-    assert r.metadata["filter"] == "kalfmu_s1_load"
+    assert r.metadata["filter"] == "SRCKF" and r.metadata["fmu"] == "kalfmu_s1_load"
+    metadata = logged_metadata(tmp_path / "s1_fmu.mcap")
+    assert metadata["filter"] == "SRCKF" and metadata["fmu"] == "kalfmu_s1_load"
     assert "F" in r.estimates and "nis" in r.estimates
     assert r.estimate.shape == (len(r.time), len(r.estimates)) and np.all(np.isfinite(r.estimate))
     # The filter moved: its estimate after the first sample is not its prior.
     assert not np.array_equal(r.estimate[0], r.estimate[-1])
     with pytest.raises(ValueError, match="no input named"):
         fly.FmuEstimator(s1_fmu)  # S1 has no input omega_x
+
+
+@pytest.mark.parametrize("value, kind", [(3, "SVD-CKF"), (4, "UKF")])
+def test_the_filter_set_is_the_filter_recorded(s1_fmu, value, kind):
+    """`filter` is read back from the FMU after initialisation and named through its
+    model description's enumeration: setting it changes the label."""
+    estimator = fly.FmuEstimator(s1_fmu, {"filter": value}, inputs={"z1_ddot": "Nx", "z2_ddot": "Ny"})
+    try:
+        assert estimator.name == kind and estimator.fmu == "kalfmu_s1_load"
+    finally:
+        estimator.close()
+
+
+def test_the_command_line_records_the_filter_of_set(s5_fmu, tmp_path, capsys):
+    """As `scenarios reproduce --study s5` calls it: `--fmu <S5's> --set filter=N` logs
+    the run with `filter` the kind N names (not the FMU's default, SVD-CKF) and `fmu` the
+    FMU's identifier."""
+    labels = {}
+    for value in (1, 4):
+        log = tmp_path / f"jsbsim_{value}.mcap"
+        fly.main([str(log), "--fmu", str(s5_fmu), "--duration", "0.05", "--set", f"filter={value}"])
+        metadata = logged_metadata(log)
+        assert metadata["fmu"] == "kalfmu_s5_missile"
+        labels[value] = metadata["filter"]
+    assert labels == {1: "CKF", 4: "UKF"}

@@ -493,6 +493,7 @@ def fly(
         "case": "jsbsim",
         "seed": str(seed),
         "filter": getattr(estimator, "name", type(estimator).__name__) if estimator is not None else "none",
+        **({"fmu": estimator.fmu} if getattr(estimator, "fmu", None) else {}),
         "parameters": json.dumps(parameters),
         "software": f"JSBSim {jsbsim.__version__} (PyPI jsbsim); kalfmu scenarios/s5_jsbsim/fly.py",
         "truth": "JSBSim, scenarios/s5_jsbsim/missile.xml: WGS84 rotating Earth with J2 gravity, US 1976 atmosphere",
@@ -561,7 +562,13 @@ class FmuEstimator:
     `inputs` maps each FMU input to one of our signals (MEASUREMENT_NAMES and
     DEFLECTION_NAMES); by default each of ours feeds the input of the same name, the
     estimator model's names (`Missile6Dof::MEASUREMENT_NAMES`), which the S5 FMU, not
-    written yet, is expected to use. `parameters` are set before initialisation ends."""
+    written yet, is expected to use. `parameters` are set before initialisation ends.
+
+    `name` (the run's metadata `filter`) is the filter kind the FMU runs, read back after
+    initialisation from its `filter` parameter and named by the item of its enumeration
+    type in the model description, spelt as our own runs spell it ("SVD-CKF" for the item
+    SVD_CKF); `fmu` (metadata `fmu`) is the FMU's model identifier. An FMU without an
+    enumeration `filter` is named by its model identifier."""
 
     def __init__(self, fmu: Path, parameters: dict | None = None, inputs: dict[str, str] | None = None):
         from fmpy import extract, read_model_description
@@ -582,7 +589,8 @@ class FmuEstimator:
         self._sources = [ours.index(s) for s in inputs.values()]
         self.outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
         self._outputs = [variables[n].valueReference for n in self.outputs]
-        self.name = md.coSimulation.modelIdentifier
+        self.fmu = md.coSimulation.modelIdentifier
+        self.name = self.fmu
         self._unzipped = extract(str(fmu))
         self._fmu = FMU2Slave(
             guid=md.guid,
@@ -602,6 +610,20 @@ class FmuEstimator:
             else:
                 self._fmu.setReal([variables[name].valueReference], [float(value)])
         self._fmu.exitInitializationMode()
+        self.name = self._filter_kind(variables.get("filter")) or self.fmu
+
+    def _filter_kind(self, variable) -> str | None:
+        """The name of the filter kind the FMU runs: the item of the `filter` enumeration
+        with the value the FMU reports, None if it has no such enumeration. FMI item names
+        are identifiers (SVD_CKF); our filters' names have a hyphen (SVD-CKF,
+        `FilterKind::name`), hence `_` to `-`."""
+        if variable is None or variable.type != "Enumeration" or variable.declaredType is None:
+            return None
+        value = self._fmu.getInteger([variable.valueReference])[0]
+        items = {int(item.value): item.name for item in variable.declaredType.items}
+        if value not in items:
+            raise ValueError(f"{self.path}: filter = {value}, not an item of {variable.declaredType.name} {items}")
+        return items[value].replace("_", "-")
 
     def __call__(self, t: float, measurements: np.ndarray, deflections: np.ndarray) -> dict:
         signals = [*map(float, measurements), *map(float, deflections)]
