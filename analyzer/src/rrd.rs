@@ -12,12 +12,13 @@
 //! | `signals/<signal>/<run>/plus_2sigma`, `…/minus_2sigma` | its ± 2σ band, where σ is logged; shown for the first run, the others' in the legend, to switch on |
 //! | `errors/<signal>/<run>` | estimate − truth |
 //! | `rmse/<signal>/<run>` | the running RMSE |
-//! | `measurements/<signal>` | what the first run's estimator was fed; missing (NaN) samples left out |
+//! | `measurements/<signal>` | what the first run's estimator was fed; missing (NaN) samples left out; a view per unit |
 //! | `psd/<signal>/loglog/truth`, `…/<run>` | Welch PSDs, log-log, static (see [`PSD_VIEW`]) |
 //! | `report` | the metrics tables, the runs' metadata and parameters, markdown, static |
 //!
 //! The blueprint opens one tab per signal (truth and estimates with their bands; error and
-//! running RMSE side by side; the spectra) beside the report and the measurements.
+//! running RMSE side by side; the spectra) beside the report and the measurements: one view,
+//! or a grid of one view per unit where they have several.
 //!
 //! Series longer than [`MAX_ROWS`] samples are drawn as their min/max envelope (see
 //! [`envelope_bucket`]), and the views say so: the viewer cannot show more points than it
@@ -34,7 +35,7 @@ use std::path::Path;
 
 use rerun::blueprint::components::PanelState;
 use rerun::blueprint::{
-    Blueprint, BlueprintPanel, ContainerLike, Horizontal, SelectionPanel, Spatial2DView, Tabs, TextDocumentView,
+    Blueprint, BlueprintPanel, ContainerLike, Grid, Horizontal, SelectionPanel, Spatial2DView, Tabs, TextDocumentView,
     TimePanel, TimeSeriesView, Vertical,
 };
 use rerun::log::{Chunk, ChunkId, RowId};
@@ -46,9 +47,9 @@ use rerun::{
 
 use crate::compare::{pair_name, Comparison, COLUMNS};
 use crate::error::LogError;
-use crate::log::MEASUREMENTS;
+use crate::log::{SignalSpec, MEASUREMENTS};
 use crate::psd::Spectrum;
-use crate::read::Run;
+use crate::read::{Run, Signal};
 use crate::report::PairReport;
 
 /// Application id of the recordings.
@@ -87,6 +88,8 @@ const ID_TIME_NS: u128 = 1;
 /// Plot box of the PSD views (scene units after the transform): 3:1, the shape of the view.
 const PSD_WIDTH: f32 = 30.0;
 const PSD_HEIGHT: f32 = 10.0;
+/// Columns of the grid of measurement views when the measurements have several units.
+const MEASUREMENT_COLUMNS: u32 = 2;
 
 /// Writes the Rerun recording of `comparison` (and of the first run's measurements) to `path`;
 /// `runs` are the runs compared, in the same order.
@@ -554,7 +557,7 @@ fn markdown(comparison: &Comparison) -> String {
          shown; click a legend entry to show or hide a line), on `{TIMELINE}` (s).\n\
          - `errors/<signal>`, `rmse/<signal>`: each run's estimate − truth and its running RMSE.\n\
          - `psd/<signal>/loglog`: Welch PSDs, {PSD_VIEW}.\n\
-         - `measurements/<signal>`: the first run's estimator inputs; missing samples are left out.\n\
+         - `measurements/<signal>`: the first run's estimator inputs, a view per unit; missing samples are left out.\n\
          - Series longer than {MAX_ROWS} samples are drawn as their min/max envelope: of every few samples, \
          the smallest and the largest at their own times (the view's title says how many); the log has them all.\n"
     );
@@ -607,7 +610,7 @@ fn metadata_rows(comparison: &Comparison) -> Vec<(String, Vec<String>)> {
 }
 
 /// One tab per signal (the signals with their bands; error and running RMSE side by side;
-/// the spectra), beside the report and the measurements.
+/// the spectra), beside the report and the measurements (a view per unit).
 fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
     let first = comparison.runs.first();
     let window = first.map_or(0.0, |r| r.rmse_window);
@@ -646,14 +649,27 @@ fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
         })
         .collect();
     let mut side: Vec<ContainerLike> = vec![TextDocumentView::new("report").with_origin("report").into()];
-    if let Some(first_run) = runs.first().filter(|r| r.channel(MEASUREMENTS).is_ok()) {
-        let title = match comparison.labels.first() {
-            Some(label) if runs.len() > 1 => format!("measurements (as fed to {label}; {})", first_run.file.display()),
-            _ => "measurements".to_string(),
+    let mut shares = vec![3.0];
+    if let Some((first_run, channel)) = runs.first().and_then(|r| r.channel(MEASUREMENTS).ok().map(|c| (r, c))) {
+        let source = match comparison.labels.first() {
+            Some(label) if runs.len() > 1 => format!(" (as fed to {label}; {})", first_run.file.display()),
+            _ => String::new(),
         };
-        side.push(TimeSeriesView::new(title).with_origin("measurements").into());
+        match <[TimeSeriesView; 1]>::try_from(channel_views("measurements", &source, &channel.signals)) {
+            Ok([view]) => {
+                side.push(view.into());
+                shares.push(2.0);
+            }
+            Err(views) => {
+                // Two views a row, each row as tall as the one view of a single-unit channel,
+                // so that each keeps room for its axis and legend.
+                let rows = views.len().div_ceil(MEASUREMENT_COLUMNS as usize);
+                side.push(Grid::new(views.into_iter().map(Into::into)).with_grid_columns(MEASUREMENT_COLUMNS).into());
+                shares.push(2.0 * rows as f32);
+            }
+        }
     }
-    let side = Vertical::new(side).with_row_shares([3.0, 2.0]);
+    let side = Vertical::new(side).with_row_shares(shares);
     let root = Horizontal::new([Tabs::new(tabs).into(), side.into()]).with_column_shares([3.0, 2.0]);
     // The side panels start collapsed: the views get the window.
     Blueprint::new(root)
@@ -662,4 +678,37 @@ fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
         .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
         .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed))
         .with_time_panel(TimePanel::new().with_timeline(TIMELINE).with_state(PanelState::Collapsed))
+}
+
+/// The time-series views of a channel whose signals are logged at `<origin>/<signal>`: one
+/// of the whole channel if its signals share a unit, else one per unit (titled
+/// `<origin> [<unit>]`, the units in the order the schema first names them), because one
+/// axis for all lets the largest unit flatten the others (a missile's altitude of 10 km its
+/// rates of a few rad/s). `note` ends every title.
+fn channel_views(origin: &str, note: &str, signals: &[Signal]) -> Vec<TimeSeriesView> {
+    let groups = unit_groups(signals);
+    if groups.len() <= 1 {
+        return vec![TimeSeriesView::new(format!("{origin}{note}")).with_origin(origin)];
+    }
+    groups
+        .iter()
+        .map(|(unit, names)| {
+            let unit = if unit.is_empty() { "no unit" } else { unit };
+            TimeSeriesView::new(format!("{origin} [{unit}]{note}"))
+                .with_origin(origin)
+                .with_contents(names.iter().map(|name| entity(&[origin, name]).to_string()))
+        })
+        .collect()
+}
+
+/// The names of `signals` by unit, the units in the order of their first signal.
+fn unit_groups(signals: &[Signal]) -> Vec<(&str, Vec<&str>)> {
+    let mut groups: Vec<(&str, Vec<&str>)> = Vec::new();
+    for SignalSpec { name, unit, .. } in signals.iter().map(|s| &s.spec) {
+        match groups.iter_mut().find(|(u, _)| u == unit) {
+            Some((_, names)) => names.push(name),
+            None => groups.push((unit, vec![name])),
+        }
+    }
+    groups
 }

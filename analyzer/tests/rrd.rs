@@ -10,7 +10,7 @@ use analyzer::read::{read_log, Run};
 use analyzer::report::Options;
 use analyzer::rrd::{envelope_bucket, write_rrd, MAX_ROWS, TIMELINE};
 use rerun::external::re_log_encoding::DecoderApp;
-use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
+use rerun::external::re_sdk_types::blueprint::archetypes::{ViewBlueprint, ViewContents};
 use rerun::log::{Chunk, LogMsg};
 use rerun::{EntityPath, Scalars, SeriesLines, StoreKind, TextDocument};
 
@@ -128,6 +128,29 @@ impl Decoded {
     /// The blueprint's view titles.
     fn view_names(&self) -> Vec<String> {
         self.blueprint.iter().flat_map(|c| strings(c, ViewBlueprint::descriptor_display_name())).collect()
+    }
+
+    /// The blueprint's views of a class: (title, origin, contents queries), by title.
+    fn views_with_contents(&self, class: &str) -> Vec<(String, String, Vec<String>)> {
+        let mut views = Vec::new();
+        for chunk in &self.blueprint {
+            if strings(chunk, ViewBlueprint::descriptor_class_identifier()) != [class] {
+                continue;
+            }
+            // The SDK logs a view's contents at `<view>/ViewContents`.
+            let contents = chunk.entity_path().join(&EntityPath::from_single_string("ViewContents"));
+            let queries = self
+                .blueprint
+                .iter()
+                .filter(|c| *c.entity_path() == contents)
+                .flat_map(|c| strings(c, ViewContents::descriptor_query()))
+                .collect();
+            let title = strings(chunk, ViewBlueprint::descriptor_display_name()).concat();
+            let origin = strings(chunk, ViewBlueprint::descriptor_space_origin()).concat();
+            views.push((title, origin, queries));
+        }
+        views.sort();
+        views
     }
 
     fn text(&self, path: &str) -> String {
@@ -260,6 +283,48 @@ fn the_recording_holds_the_spectra_the_tables_and_a_blueprint() {
     ];
     let expected: Vec<(String, String)> = expected.iter().map(|(c, o)| (c.to_string(), o.to_string())).collect();
     assert_eq!(views, expected);
+    let measurements = rrd.views_with_contents("TimeSeries").into_iter().find(|v| v.1 == "/measurements");
+    assert_eq!(measurements.unwrap().2, ["$origin/**"], "a channel of one unit is one view of it all");
+}
+
+#[test]
+fn measurements_in_several_units_get_a_view_per_unit() {
+    // Units interleaved, as a missile's rates, altitude and rates again would be: the views
+    // group by unit, not by neighbours in the schema.
+    let log = temp("units.mcap");
+    let mut w = LogWriter::create(&log, &BTreeMap::new()).unwrap();
+    let m = w
+        .add_channel(
+            MEASUREMENTS,
+            &[
+                SignalSpec::new("p", "rad/s", "roll rate"),
+                SignalSpec::new("h", "m", "altitude"),
+                SignalSpec::new("q", "rad/s", "pitch rate"),
+            ],
+        )
+        .unwrap();
+    let t = w.add_channel(TRUTH, &[SignalSpec::new("F", "N", "true load")]).unwrap();
+    let e = w.add_channel(ESTIMATE, &[SignalSpec::new("F", "N", "estimated load")]).unwrap();
+    for k in 0..200 {
+        let time = k as f64 * 0.01;
+        w.write(m, time, &[0.1, 10_000.0 + time, -0.1]).unwrap();
+        w.write(t, time, &[time]).unwrap();
+        w.write(e, time, &[time]).unwrap();
+    }
+    w.finish().unwrap();
+    let runs = [read_log(&log).unwrap()];
+    let comparison = compare_runs(&runs, &Options::default()).unwrap();
+    let path = temp("units.rrd");
+    write_rrd(&comparison, &runs, &path).unwrap();
+    let rrd = Decoded::read(&path);
+    let measurements: Vec<(String, String, Vec<String>)> =
+        rrd.views_with_contents("TimeSeries").into_iter().filter(|(_, origin, _)| origin == "/measurements").collect();
+    let view = |title: &str, signals: &[&str]| {
+        let queries = signals.iter().map(|s| format!("/measurements/{s}")).collect();
+        (title.to_string(), "/measurements".to_string(), queries)
+    };
+    assert_eq!(measurements, [view("measurements [m]", &["h"]), view("measurements [rad/s]", &["p", "q"])]);
+    assert_eq!(rrd.series("measurements/h").1[1], [10_000.01], "each signal is still logged on its own");
 }
 
 #[test]
