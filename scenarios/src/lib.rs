@@ -9,5 +9,6 @@ pub mod reproduce;
 pub mod s1;
 pub mod s1_faults;
 pub mod s2;
+pub mod s4;
 pub mod s5;
 pub mod sweep;
