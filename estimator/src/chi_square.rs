@@ -4,7 +4,7 @@
 //! quantile by bisection on it, to about 1e-12 relative.
 
 /// `ln Γ(x)` for `x > 0` (Lanczos, g = 7, 9 terms: about 1e-15 relative).
-fn ln_gamma(x: f64) -> f64 {
+pub(crate) fn ln_gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,

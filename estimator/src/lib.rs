@@ -39,6 +39,7 @@ mod noise;
 mod points;
 mod supervisor;
 
+pub mod fusion;
 pub mod models;
 
 pub use adaptive_noise::SageHusa;
