@@ -46,7 +46,7 @@ fn t_quantiles_match_published_values() {
     ];
     for (dof, p, expected) in cases {
         let got = student_t::quantile(dof, p);
-        assert!(close(got, expected, 1e-10), "t({dof}) at {p}: {got} vs {expected}");
+        assert!(close(got, expected, 1e-12), "t({dof}) at {p}: {got} vs {expected}");
         assert!((student_t::cdf(dof, got) - p).abs() < 1e-13, "cdf of the quantile, ν = {dof}");
     }
 }
@@ -61,7 +61,7 @@ fn t_cdf_matches_published_values() {
         (30.0, 4.0, 0.9998090771819581),
     ];
     for (dof, t, expected) in cases {
-        assert!(close(student_t::cdf(dof, t), expected, 1e-12), "t({dof}) cdf at {t}");
+        assert!(close(student_t::cdf(dof, t), expected, 1e-13), "t({dof}) cdf at {t}");
     }
 }
 
@@ -145,22 +145,22 @@ fn grubbs_critical_values_match_the_published_table() {
     // Two-sided α = 0.05, four-digit tables (e.g. Grubbs & Beck 1972 as reprinted
     // by ASTM E178), and the same from 40-digit mpmath.
     let table = [
-        (3, 1.1543, 1.1543048513),
+        (3, 1.1543, 1.1543048513440384),
         (4, 1.4812, 1.48125),
-        (5, 1.7150, 1.7150373123),
-        (6, 1.8871, 1.8871451178),
-        (7, 2.0200, 2.0199685077),
-        (8, 2.1266, 2.1266450872),
-        (9, 2.2150, 2.2150042233),
-        (10, 2.2900, 2.2899540845),
-        (20, 2.7082, 2.7082456458),
-        (50, 3.1282, 3.1282473343),
-        (100, 3.3841, 3.3840829012),
+        (5, 1.7150, 1.7150373123433638),
+        (6, 1.8871, 1.8871451177839331),
+        (7, 2.0200, 2.019968507679597),
+        (8, 2.1266, 2.1266450871954654),
+        (9, 2.2150, 2.215004223325533),
+        (10, 2.2900, 2.2899540844796005),
+        (20, 2.7082, 2.7082456458057544),
+        (50, 3.1282, 3.128247334330972),
+        (100, 3.3841, 3.384082901154891),
     ];
     for (n, printed, exact) in table {
         let g = grubbs::critical_value(n, 0.05);
         assert!((g - printed).abs() <= 0.5e-4 + 1e-12, "n = {n}: {g} vs the table's {printed}");
-        assert!((g - exact).abs() < 1e-9, "n = {n}: {g} vs {exact}");
+        assert!((g - exact).abs() < 1e-12, "n = {n}: {g} vs {exact}");
         assert!(g < grubbs::max_statistic(n));
     }
 }
