@@ -37,6 +37,17 @@
 //!   is lost; see the note of issue 17.)
 //!   When every available channel has failed for `reacquire_after` samples
 //!   the filter re-acquires whatever the channels' past: it is lost.
+//! * **Inflation budget.** Re-acquisitions multiply the covariance by at most
+//!   [`SupervisorSettings::max_inflation`] in total until a sample passes the
+//!   gate with none of its rows rejected. When no inflation makes the filter
+//!   agree with its sensors for good (their noise far above what `R` says:
+//!   each update collapses `P` onto the told `R` and the next innovations
+//!   fail again), repeated re-acquisitions would multiply the unobserved
+//!   directions of `P` by 1e4 each time, until `P` loses its definiteness or
+//!   overflows (S5, `R` told 1000× too small: every filter kind failed within
+//!   0.1–2.7 s). With the budget spent the filter stays lost, predicting
+//!   only, its `P` finite and its health false ([`Supervisor::exhausted`]),
+//!   until its sensors pass the gate again (the user corrects `R`).
 //! * **Consistency.** Each available row's normalised innovation `νᵢ²/Sᵢᵢ`
 //!   (before the gate, clipped at the gate's threshold so that one glitch
 //!   cannot flag a window), summed over the last
@@ -86,6 +97,11 @@ pub struct SupervisorSettings {
     /// How far above its χ² bound the windowed NIS may go before the filter
     /// is inconsistent. Default 3 (the σ understate the errors by more than √3).
     pub consistency_margin: f64,
+    /// The most the re-acquisitions may multiply the covariance by in total
+    /// between two samples that pass the gate whole. Default 1e8: two full
+    /// re-acquisitions (S1's load step and S5's change of every coefficient
+    /// each take one).
+    pub max_inflation: f64,
 }
 
 impl Default for SupervisorSettings {
@@ -99,6 +115,7 @@ impl Default for SupervisorSettings {
             window: 200,
             consistency_probability: 1e-6,
             consistency_margin: 3.0,
+            max_inflation: 1e8,
         }
     }
 }
@@ -121,6 +138,9 @@ impl SupervisorSettings {
         }
         if !(self.consistency_margin >= 1.0 && self.consistency_margin.is_finite()) {
             return bad(format!("consistency margin must be at least 1, got {}", self.consistency_margin));
+        }
+        if !(self.max_inflation >= 1.0 && self.max_inflation.is_finite()) {
+            return bad(format!("max_inflation must be finite and at least 1, got {}", self.max_inflation));
         }
         Ok(())
     }
@@ -147,6 +167,8 @@ pub struct Outcome {
     /// The covariance was inflated and every row used; the channel whose
     /// persistent failure triggered it.
     pub reacquired: Option<usize>,
+    /// The factor the covariance was inflated by (1 without a re-acquisition).
+    pub inflation: f64,
     /// NIS of the update made (0 without rows).
     pub nis: f64,
     /// Its degrees of freedom: the rows used.
@@ -205,6 +227,8 @@ pub struct Supervisor {
     reacquisitions: u64,
     /// Samples since the last re-acquisition: none within `reacquire_after` of another.
     since_reacquisition: u32,
+    /// The product of the re-acquisitions' factors since a sample last passed the gate whole.
+    inflation: f64,
     /// Ring of `(nis, dof)` of the last `window` samples.
     ring: Vec<(f64, usize)>,
     ring_at: usize,
@@ -241,6 +265,7 @@ impl Supervisor {
             all_rejected_run: 0,
             reacquisitions: 0,
             since_reacquisition: u32::MAX,
+            inflation: 1.0,
             ring: vec![(0.0, 0); settings.window],
             ring_at: 0,
             ring_len: 0,
@@ -250,6 +275,7 @@ impl Supervisor {
             pending: Outcome {
                 rows: vec![RowOutcome::Missing; m],
                 reacquired: None,
+                inflation: 1.0,
                 nis: 0.0,
                 dof: 0,
                 worst_ratio: 0.0,
@@ -294,6 +320,7 @@ impl Supervisor {
             };
         }
         self.pending.reacquired = None;
+        self.pending.inflation = 1.0;
         self.pending.worst_ratio = 0.0;
         self.pending.clipped_ratios = 0.0;
         self.pending.gated_rows = 0;
@@ -353,11 +380,13 @@ impl Supervisor {
             let lost =
                 (cooled && all_fail && self.all_rejected_run + 1 >= self.settings.reacquire_after).then_some(worst_row);
             let persistent = persistent.or(lost);
-            if let (true, Some(trigger)) = (first, persistent) {
+            // Within the budget: what is left of it, if less than this re-acquisition asks.
+            let factor = (4.0 * worst / threshold).clamp(1.0, 1e4).min(self.settings.max_inflation / self.inflation);
+            if let (true, Some(trigger), true) = (first, persistent, factor > 1.0) {
                 // A channel has disagreed with the filter again and again: re-acquire.
                 filter.restore(&self.before)?;
                 let reacquired = filter
-                    .scale_covariance((4.0 * worst / threshold).clamp(1.0, 1e4))
+                    .scale_covariance(factor)
                     .and_then(|()| filter.update(&self.z_gated).map(|i| (i.nis(), i.rows_used())));
                 match reacquired {
                     Ok((nis, dof)) => (self.pending.nis, self.pending.dof) = (nis, dof),
@@ -368,6 +397,7 @@ impl Supervisor {
                     }
                 }
                 self.pending.reacquired = Some(trigger);
+                self.pending.inflation = factor;
                 break;
             }
             // Leave the failing rows out (the worst one when only the vector fails) and redo.
@@ -408,6 +438,12 @@ impl Supervisor {
     /// and all its sensors disagree (it re-acquires after `reacquire_after`).
     pub fn lost(&self) -> bool {
         self.all_rejected_run > 0
+    }
+
+    /// The re-acquisitions have spent [`SupervisorSettings::max_inflation`]
+    /// since a sample last passed the gate whole: no more until one does.
+    pub fn exhausted(&self) -> bool {
+        self.inflation >= self.settings.max_inflation
     }
 
     /// Consistent and not lost.
@@ -466,6 +502,7 @@ impl Supervisor {
             self.ring_len as u64,
             u64::from(self.consistent),
             self.window_nis.to_bits(),
+            self.inflation.to_bits(),
         ]);
         for &(sum, rows) in &self.ring {
             out.extend([sum.to_bits(), rows as u64]);
@@ -477,7 +514,7 @@ impl Supervisor {
     pub fn load(&mut self, words: &[u64]) -> Result<(), FilterError> {
         let m = self.channels.len();
         let w = self.ring.len();
-        let expected = 9 * m + 7 + 2 * w;
+        let expected = 9 * m + 8 + 2 * w;
         crate::error::check_len("supervisor memory", expected, words.len())?;
         let small = |v: u64| {
             u32::try_from(v).map_err(|_| FilterError::InvalidSetting(format!("supervisor memory: {v} is out of range")))
@@ -507,11 +544,17 @@ impl Supervisor {
             return Err(FilterError::InvalidSetting("supervisor memory: window position out of range".into()));
         }
         let ring: Vec<(f64, usize)> =
-            rest[7..].chunks_exact(2).map(|p| (f64::from_bits(p[0]), p[1] as usize)).collect();
+            rest[8..].chunks_exact(2).map(|p| (f64::from_bits(p[0]), p[1] as usize)).collect();
         if ring.iter().any(|&(sum, rows)| !sum.is_finite() || rows > m) {
             return Err(FilterError::InvalidSetting("supervisor memory: a window entry is out of range".into()));
         }
         let (all_rejected_run, since_reacquisition, consistent) = (small(rest[0])?, small(rest[2])?, flag(rest[5])?);
+        let inflation = f64::from_bits(rest[7]);
+        if !(inflation >= 1.0 && inflation <= self.settings.max_inflation) {
+            return Err(FilterError::InvalidSetting(format!(
+                "supervisor memory: inflation {inflation} is out of range"
+            )));
+        }
         self.channels = channels;
         self.all_rejected_run = all_rejected_run;
         self.reacquisitions = rest[1];
@@ -520,6 +563,7 @@ impl Supervisor {
         self.ring_len = ring_len;
         self.consistent = consistent;
         self.window_nis = f64::from_bits(rest[6]);
+        self.inflation = inflation;
         self.ring.copy_from_slice(&ring);
         Ok(())
     }
@@ -570,6 +614,14 @@ impl Supervisor {
         self.reacquisitions += u64::from(outcome.reacquired.is_some());
         self.since_reacquisition =
             if outcome.reacquired.is_some() { 0 } else { self.since_reacquisition.saturating_add(1) };
+        let passed_whole = outcome.dof > 0 && !outcome.rows.contains(&RowOutcome::Rejected);
+        self.inflation = if outcome.reacquired.is_some() {
+            (self.inflation * outcome.inflation).min(self.settings.max_inflation)
+        } else if passed_whole {
+            1.0
+        } else {
+            self.inflation
+        };
         let (sum, rows) = (outcome.clipped_ratios, outcome.gated_rows);
         self.push(sum, rows);
     }

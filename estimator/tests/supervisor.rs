@@ -13,7 +13,12 @@ use estimator::{
 };
 
 fn filter(kind: FilterKind, case: &LinearCase, r_scale: f64) -> Box<dyn StateEstimator> {
-    let noise = Noise::new(case.q.clone(), &case.r * r_scale).unwrap();
+    overconfident(kind, case, 1.0, r_scale)
+}
+
+/// The filter told `q_scale`·Q and `r_scale`·R.
+fn overconfident(kind: FilterKind, case: &LinearCase, q_scale: f64, r_scale: f64) -> Box<dyn StateEstimator> {
+    let noise = Noise::new(&case.q * q_scale, &case.r * r_scale).unwrap();
     build_filter(kind, case.model.clone(), noise, &case.prior, UnscentedParams { alpha: 1.0, beta: 0.0, kappa: 0.0 })
         .unwrap()
 }
@@ -146,6 +151,50 @@ fn a_true_jump_of_the_state_is_reacquired_and_followed() {
         // Followed: the last 200 samples pass the gate.
         assert!(s.channels().iter().all(|c| !c.faulty && c.bad_run == 0), "{kind}");
         assert_eq!(s.reacquisitions(), 1, "{kind}");
+    }
+}
+
+#[test]
+fn re_acquisitions_stop_at_their_inflation_budget_when_the_sensors_are_far_noisier_than_r() {
+    // Q and R told 1e6 too small (1000 in σ): after each re-acquisition the
+    // update collapses P onto the told R and the next rows fail again, so
+    // without a budget the filter re-acquires every reacquire_after samples,
+    // multiplying P by up to 1e4 each time (here every direction is observed
+    // and P collapses again; S5's coefficients are not, and there P overflows
+    // or loses its definiteness: scenarios/tests/s5_study.rs). With the
+    // default budget (1e8) it stops after two re-acquisitions, P stays finite
+    // and the filter reports itself unhealthy; a sample that passes the gate
+    // whole gives the budget back.
+    let case = linear_case(1_000, 19);
+    let h = case.model.h().clone();
+    for kind in FilterKind::ALL {
+        let (mut f, mut s) = (overconfident(kind, &case, 1e-6, 1e-6), supervisor());
+        let mut unbounded =
+            Supervisor::new(SupervisorSettings { max_inflation: 1e300, ..Default::default() }, 3).unwrap();
+        let mut g = overconfident(kind, &case, 1e-6, 1e-6);
+        let mut unbounded_failed = false;
+        for (u, z) in case.inputs.iter().zip(&case.measurements) {
+            step(f.as_mut(), &mut s, u, z);
+            assert!(f.covariance().iter().all(|p| p.is_finite()), "{kind}");
+            if !unbounded_failed {
+                g.predict(u, 0.01).unwrap();
+                unbounded_failed = unbounded.gate(g.as_mut(), z).is_err();
+                unbounded.commit(|_| {});
+            }
+        }
+        assert!(s.exhausted() && !s.healthy(), "{kind}");
+        assert!(s.reacquisitions() <= 2, "{kind}: {} re-acquisitions", s.reacquisitions());
+        assert!(
+            unbounded_failed || unbounded.reacquisitions() > 50,
+            "{kind}: without a budget it re-acquires on ({} times)",
+            unbounded.reacquisitions()
+        );
+        // Measurements the filter predicts exactly pass whole: the budget is back.
+        f.predict(&case.inputs[0], 0.01).unwrap();
+        let z: Vec<f64> = (&h * f.mean()).iter().copied().collect();
+        s.gate(f.as_mut(), &z).unwrap();
+        s.commit(|_| {});
+        assert!(!s.exhausted(), "{kind}");
     }
 }
 

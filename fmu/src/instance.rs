@@ -382,6 +382,16 @@ impl Instance {
                 Event::Consistent { consistent: true, time } => {
                     (Fmi2Status::Ok, "logEvents", format!("the filter is consistent again at t = {time} s"))
                 }
+                Event::Exhausted { exhausted: true, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("no more re-acquisitions from t = {time} s: they have inflated the covariance by max_inflation since a sample last passed the gate whole; the filter predicts only while its inputs fail the gate (is a sensor's noise far above its r_<input>_std?)"),
+                ),
+                Event::Exhausted { exhausted: false, time } => (
+                    Fmi2Status::Ok,
+                    "logEvents",
+                    format!("every input passed the gate at t = {time} s: re-acquisitions are possible again"),
+                ),
             };
             self.log(status, category, &text);
         }
@@ -530,6 +540,7 @@ pub(crate) fn build_estimation(
         stuck_after: count("stuck_after")?,
         window: count("consistency_window")? as usize,
         consistency_margin: p.get("consistency_margin")?,
+        max_inflation: p.get("max_inflation")?,
         ..SupervisorSettings::default()
     };
     let supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;

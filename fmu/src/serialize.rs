@@ -25,7 +25,7 @@ use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 4;
+const VERSION: u32 = 5;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.

@@ -127,6 +127,9 @@ pub enum Event {
     Reacquired { channel: usize, time: f64 },
     /// The filter became inconsistent (`false`) or consistent again (`true`) at the time.
     Consistent { consistent: bool, time: f64 },
+    /// The re-acquisitions spent their inflation budget (`true`), or a sample
+    /// passed the gate whole again (`false`), at the time.
+    Exhausted { exhausted: bool, time: f64 },
 }
 
 /// The running estimator of an instance: the filter on its grid, and a
@@ -390,11 +393,14 @@ impl Estimation {
         if let Some(channel) = self.supervisor.pending().reacquired {
             self.events.push(Event::Reacquired { channel, time });
         }
-        let was_consistent = self.supervisor.consistent();
+        let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());
         let events = &mut self.events;
         self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));
         if self.supervisor.consistent() != was_consistent {
             self.events.push(Event::Consistent { consistent: self.supervisor.consistent(), time });
+        }
+        if self.supervisor.exhausted() != was_exhausted {
+            self.events.push(Event::Exhausted { exhausted: self.supervisor.exhausted(), time });
         }
     }
 

@@ -1,10 +1,12 @@
 //! The S5 study: the SRCKF on the 20-state model identifies every coefficient of the
 //! paper's missile before and after the change, and comes back quickly; the Monte Carlo
-//! command prints its tables and splits its runs between shards.
+//! command prints its tables and splits its runs between shards. With `R` told far too
+//! small, the square-root filters fly on, reported unhealthy, because the supervisor's
+//! re-acquisitions stop at their inflation budget.
 
-use estimator::FilterKind;
+use estimator::{FilterKind, SupervisorSettings};
 use scenarios::s5::parameters::{AFTER, BEFORE, NAMES};
-use scenarios::s5::study::{measure, run_filter, simulate, Settings, Tuning};
+use scenarios::s5::study::{measure, run_filter, run_supervised, simulate, Settings, Tuning};
 
 #[test]
 fn the_srckf_identifies_every_coefficient_within_one_percent_before_and_after_the_change() {
@@ -26,6 +28,31 @@ fn the_srckf_identifies_every_coefficient_within_one_percent_before_and_after_th
             assert!(r < 0.03, "{} at {:.3} s: {:.2} %", NAMES[i], truth.time[k], 100.0 * r);
         }
     }
+}
+
+#[test]
+fn with_r_told_a_thousand_times_too_small_the_square_root_filters_fly_on_unhealthy() {
+    // Our sensors, the filter told a thousandth of their σ: no inflation makes it agree
+    // with them. Without a budget each re-acquisition multiplies the coefficients' σ by
+    // up to 100 until P is no longer finite (SRCKF: 2.7 s into the flight); with the
+    // default budget the filter keeps only what passes the gate, and says so.
+    let settings = Settings::default();
+    let truth = simulate(&settings);
+    let z = measure(&truth, 1.0, settings.seed);
+    let told = Tuning::new(1e-3);
+    let dt = settings.sample_time;
+    for kind in [FilterKind::SrCkf, FilterKind::SvdCkf] {
+        let e = run_supervised(kind, &told, &truth, &z, dt, &[], SupervisorSettings::default())
+            .unwrap_or_else(|error| panic!("{kind}: {error}"));
+        let end = truth.time.len() - 1;
+        assert!(e.std[end].iter().all(|s| s.is_finite()), "{kind}");
+        assert!(!e.healthy[end], "{kind}: R is wrong, and the filter must say so");
+        assert!(e.healthy.iter().filter(|h| !**h).count() > end / 2, "{kind}");
+    }
+    let unbounded = SupervisorSettings { max_inflation: 1e300, ..SupervisorSettings::default() };
+    let error = run_supervised(FilterKind::SrCkf, &told, &truth, &z, dt, &[], unbounded)
+        .expect_err("without the budget the SRCKF's P leaves the floats");
+    assert!(error.contains("not finite"), "{error}");
 }
 
 #[test]

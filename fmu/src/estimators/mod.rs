@@ -210,6 +210,13 @@ fn common_variables(sample_time: f64, filter: FilterKind) -> Vec<Variable> {
             "how far above its chi-square bound the windowed innovation may go before the filter is inconsistent",
         )
         .bounded(Some(1.0), None),
+        Variable::parameter(
+            "max_inflation",
+            "1",
+            SupervisorSettings::default().max_inflation,
+            "the most re-acquisitions may multiply the covariance by in total until a sample passes the gate whole",
+        )
+        .bounded(Some(1.0), None),
         Variable::parameter("ukf_alpha", "1", 1e-3, "UKF spread alpha (UKF only)").bounded(Some(1e-9), None),
         Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
         Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),

@@ -27,9 +27,9 @@ pub struct Args {
     pub shard: Shard,
 }
 
-/// A run's end: the worst coefficient, its relative error and its error over σ; or why
-/// the filter failed.
-type Outcome = Result<(usize, f64, f64), String>;
+/// A run's end: the worst coefficient, its relative error and its error over σ, and
+/// whether the supervisor calls the filter healthy; or why the filter failed.
+type Outcome = Result<(usize, f64, f64, bool), String>;
 
 /// One condition of the sweep.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,12 +112,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         run_supervised(filter, &tuning, truth, &z, settings.sample_time, &[], supervision).map(|e| {
             // The worst coefficient's relative error at the end, and its σ ratio.
-            (0..10)
+            let (i, relative, sigmas) = (0..10)
                 .map(|i| {
                     let error = e.coefficients[end][i] - truth.coefficients[end][i];
                     (i, error / truth.coefficients[end][i].abs(), error.abs() / e.std[end][i])
                 })
-                .fold((0, 0.0_f64, 0.0_f64), |w, r| if r.1.abs() > w.1.abs() { r } else { w })
+                .fold((0, 0.0_f64, 0.0_f64), |w, r| if r.1.abs() > w.1.abs() { r } else { w });
+            (i, relative, sigmas, e.healthy[end])
         })
     });
     let mut out = String::new();
@@ -128,8 +129,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     let _ = writeln!(
         out,
-        "{:<26} {:<8} {:>7} {:>28} {:>10}",
-        "condition", "filter", "failed", "worst coefficient (median)", "|err|/σ"
+        "{:<26} {:<8} {:>7} {:>28} {:>10} {:>8}",
+        "condition", "filter", "failed", "worst coefficient (median)", "|err|/σ", "healthy"
     );
     for (c, condition) in Condition::ALL.iter().enumerate() {
         for filter in FilterKind::ALL {
@@ -139,18 +140,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 continue;
             }
             let failures: Vec<&String> = cell.iter().filter_map(|(_, r)| r.as_ref().err()).collect();
-            let mut worst: Vec<(usize, f64, f64)> = cell.iter().filter_map(|(_, r)| r.as_ref().ok().copied()).collect();
+            let mut worst: Vec<(usize, f64, f64, bool)> =
+                cell.iter().filter_map(|(_, r)| r.as_ref().ok().copied()).collect();
+            let healthy = worst.iter().filter(|w| w.3).count();
             worst.sort_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
             let median = worst.get(worst.len() / 2);
             let _ = writeln!(
                 out,
-                "{:<26} {:<8} {:>3}/{:<3} {:>28} {:>10}",
+                "{:<26} {:<8} {:>3}/{:<3} {:>28} {:>10} {:>8}",
                 condition.name(),
                 filter.name(),
                 failures.len(),
                 cell.len(),
-                median.map_or("—".into(), |(i, r, _)| format!("{} {:+.3} %", NAMES[*i], 100.0 * r)),
-                median.map_or("—".into(), |(_, _, s)| format!("{s:.1}"))
+                median.map_or("—".into(), |(i, r, _, _)| format!("{} {:+.3} %", NAMES[*i], 100.0 * r)),
+                median.map_or("—".into(), |(_, _, s, _)| format!("{s:.1}")),
+                format!("{healthy}/{}", worst.len())
             );
             if let Some(first) = failures.first() {
                 let _ = writeln!(out, "{:<26}   first failure: {first}", "");

@@ -165,6 +165,8 @@ pub struct Estimates {
     pub std: Vec<[f64; 10]>,
     /// Measurement rows the supervisor's gate left out.
     pub rejected: u64,
+    /// The supervisor's health after each sample: consistent and not lost.
+    pub healthy: Vec<bool>,
     /// The coefficients' covariance at the samples asked for (`checkpoints`).
     pub covariance_at: Vec<(usize, nalgebra::DMatrix<f64>)>,
 }
@@ -209,6 +211,7 @@ pub fn run_supervised(
             .and_then(|_| supervisor.gate(filter.as_mut(), z).map(|_| ()))
             .map_err(|e| format!("t = {:.3} s (sample {k}): {e}", truth.time[k]))?;
         supervisor.commit(|_| {});
+        estimates.healthy.push(supervisor.healthy());
         let c = Missile6Dof::COEFFICIENTS;
         estimates.coefficients.push(std::array::from_fn(|i| filter.mean()[c + i]));
         estimates.std.push(std::array::from_fn(|i| filter.variance(c + i).max(0.0).sqrt()));
