@@ -60,7 +60,7 @@ impl Channel {
 pub fn simulate(profile: &Profile, faults: &Faults, seed: u64) -> Recording {
     let n = (profile.duration() / TELEGRAM_INTERVAL).round() as usize + 1;
     let truth: Vec<_> = (0..n).map(|k| profile.state(k as f64 * TELEGRAM_INTERVAL)).collect();
-    let moving: Vec<bool> = truth.iter().map(|s| s.speed != 0.0).collect();
+    let moving: Vec<bool> = truth.iter().map(|s| s.speed > 0.0).collect();
     let mut recording = Recording {
         telegram_interval: TELEGRAM_INTERVAL,
         truth,

@@ -135,7 +135,8 @@ impl Faults {
     }
 
     /// The same faults, their rates (dropouts, resends, spikes, slips) times `factor`;
-    /// the sizes, the offsets and the noise stay.
+    /// the sizes, the offsets and the noise stay. The four rates must still add up to
+    /// less than 1 (at most one fault starts per telegram).
     pub fn scaled(&self, factor: f64) -> Self {
         Self {
             dropout: Bursts { probability: self.dropout.probability * factor, ..self.dropout },
@@ -160,26 +161,27 @@ impl Faults {
         }
         let mut k = 1;
         while k < n {
+            // One uniform draw picks at most one fault: the kinds' probabilities stacked on [0, 1).
             let u: f64 = rng.random();
             let burst = |bursts: &Bursts, rng: &mut ChaCha8Rng| k..(k + rng.random_range(1..=bursts.longest)).min(n);
-            let p_resend = self.dropout.probability + self.resend.probability;
-            let p_spike = p_resend + self.spike_probability;
-            let p_slip = p_spike + if moving[k] { self.slip_probability } else { 0.0 };
+            let up_to_resend = self.dropout.probability + self.resend.probability;
+            let up_to_spike = up_to_resend + self.spike_probability;
+            let up_to_slip = up_to_spike + if moving[k] { self.slip_probability } else { 0.0 };
             k = if u < self.dropout.probability {
                 let telegrams = burst(&self.dropout, rng);
                 let next = telegrams.end + 1;
                 record(FaultKind::Dropout, telegrams);
                 next
-            } else if u < p_resend {
+            } else if u < up_to_resend {
                 let telegrams = burst(&self.resend, rng);
                 let next = telegrams.end + 1;
                 record(FaultKind::Resend, telegrams);
                 next
-            } else if u < p_spike {
+            } else if u < up_to_spike {
                 let error = sign(rng) * rng.random_range(self.spike_speed.clone()) * TELEGRAM_INTERVAL;
                 record(FaultKind::Spike { error }, k..k + 1);
                 k + 2
-            } else if u < p_slip {
+            } else if u < up_to_slip {
                 record(FaultKind::SlotSlip { step: sign(rng) * SLOT_PITCH }, k..n);
                 k + 1
             } else {
