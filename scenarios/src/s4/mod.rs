@@ -12,8 +12,6 @@
 
 pub mod channels;
 pub mod faults;
-pub mod metrics;
-pub mod paper;
 pub mod parameters;
 pub mod profile;
 pub mod recording;
