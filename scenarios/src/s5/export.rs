@@ -87,13 +87,9 @@ pub fn write_table<W: Write>(
         .chain(NAMES.iter().map(|c| format!("true_{c}")))
         .collect();
     writeln!(out, "{}", header.join(","))?;
-    for k in 0..rows.min(truth.time.len()) {
-        let row: Vec<String> = std::iter::once(truth.time[k])
-            .chain(measurements[k])
-            .chain(truth.deflections[k])
-            .chain(truth.coefficients[k])
-            .map(|v| v.to_string())
-            .collect();
+    let samples = truth.time.iter().zip(measurements).zip(&truth.deflections).zip(&truth.coefficients);
+    for (((t, z), delta), c) in samples.take(rows) {
+        let row: Vec<String> = std::iter::once(t).chain(z).chain(delta).chain(c).map(|v| v.to_string()).collect();
         writeln!(out, "{}", row.join(","))?;
     }
     Ok(())
