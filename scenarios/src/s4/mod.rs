@@ -12,6 +12,8 @@
 
 pub mod channels;
 pub mod faults;
+pub mod metrics;
+pub mod paper;
 pub mod parameters;
 pub mod profile;
 pub mod recording;
