@@ -2,7 +2,7 @@
 //! position channels, each with its own offset (seed `003_…`; `docs/s4-maglev.md`).
 //!
 //! The state is the reference point's position `s`, speed `v` and acceleration `a`, a
-//! constant acceleration driven by white jerk (the "white-noise jerk" or Singer-limit
+//! constant acceleration driven by white jerk (the continuous Wiener-process acceleration
 //! model, Bar-Shalom, Li & Kirubarajan, *Estimation with Applications to Tracking and
 //! Navigation*, 2001, §6.2.3), and the offsets `d₁..d₄` of the four channels, random
 //! constants with an optional small random walk:

@@ -13,6 +13,7 @@
 pub mod channels;
 pub mod faults;
 pub mod metrics;
+pub mod ours;
 pub mod paper;
 pub mod parameters;
 pub mod profile;
