@@ -31,8 +31,8 @@
 //!   and uses every row. Measured on the paper's run (seed 1, SRCKF; `tests/s4_ours.rs`)
 //!   it fails, for two reasons. The inflated covariance cannot tell one channel's slip
 //!   from the train and the other three channels moving, so the step is shared out
-//!   (three quarters to the slipped offset, a quarter to the position and the other
-//!   three offsets); the others then fail the gate in turn and re-acquire too. And the
+//!   (by the offsets' prior: three quarters to the slipped offset, a quarter to the
+//!   position and, with the other sign, to each of the other three offsets); the others then fail the gate in turn and re-acquire too. And the
 //!   inflation also multiplies the unobservable direction (the common offset, see
 //!   [`PrwTrain`]), which no measurement shrinks again: the position's σ went from
 //!   0.025 m to 4,100 m over six re-acquisitions, the filter was unhealthy for 2,681
@@ -118,8 +118,9 @@ impl Tuning {
     /// at most 0.8 m/s², no jumps): `q = 0.01 m²/s⁵`, the rest as [`Tuning::paper`].
     /// Swept the same way on the high-speed run (speed error max / RMS): 0.001: 0.030 /
     /// 0.0032 m/s; 0.003: 0.024 / 0.0033; **0.01: 0.022 / 0.0040**; 0.03: 0.025 /
-    /// 0.0051; 0.1: 0.031 / 0.0067; 1: 0.051 / 0.012; from 0.001 to 0.3 one gate
-    /// rejection off any fault in 820,880 rows, what the gate's 1e-6 per row gives. The
+    /// 0.0051; 0.1: 0.031 / 0.0067; 1: 0.051 / 0.012 (seeds 1–10). Gate rejections off any
+    /// fault in 820,880 rows: 3 at 0.001, 1 from 0.003 to 0.3 (what the gate's 1e-6 per
+    /// row gives), 0 at 1. 0.01 has the smallest largest error. The
     /// paper's `q = 10` runs it too, with 0.076 / 0.020 m/s on seed 1.
     pub fn jerk_limited() -> Self {
         Self { jerk_intensity: 0.01, ..Self::paper() }
