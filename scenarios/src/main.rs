@@ -5,6 +5,7 @@
 //!   scenarios s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
 //!   scenarios s1-faults [--case stiffness/random] [--shard K/N]
 //!   scenarios s2-sweep [--speeds 40,80,120,160] [--errors 0.05,0.1] [--rates 200,1000] [--seeds 3] [--shard K/N]
+//!   scenarios s4-compare [--profile paper|high-speed] [--seeds 1] [--filter SRCKF] [--shard K/N]
 //!   scenarios s5-monte-carlo [--runs 100] [--filters SVD-CKF,CKF] [--shard K/N]
 //!   scenarios s5-robustness [--seeds 5] [--shard K/N]
 //!   scenarios replay < spec.json > estimates.json
@@ -32,6 +33,8 @@ enum Command {
     S1Faults(scenarios::s1_faults::Args),
     /// Study S2 across speeds, vehicle-parameter errors, sampling rates and track seeds.
     S2Sweep(scenarios::s2::sweep::Args),
+    /// Study S4 in-process: the raw average, the paper's pipeline and ours, scored against the truth.
+    S4Compare(scenarios::s4::compare::Args),
     /// Study S5's filters over many noise seeds: error spread, consistency, Cramér–Rao.
     S5MonteCarlo(scenarios::s5::monte_carlo::Args),
     /// Study S5's filters where they may fail: tiny R, long runs, no excitation.
@@ -51,6 +54,7 @@ fn main() -> ExitCode {
         Command::S1Sweep(args) => scenarios::sweep::run(args),
         Command::S1Faults(args) => scenarios::s1_faults::run_command(args),
         Command::S2Sweep(args) => scenarios::s2::sweep::run(args),
+        Command::S4Compare(args) => scenarios::s4::compare::run(args),
         Command::S5MonteCarlo(args) => scenarios::s5::monte_carlo::run(args),
         Command::S5Robustness(args) => scenarios::s5::robustness::run(args),
         Command::Replay(args) => scenarios::replay::run(args),

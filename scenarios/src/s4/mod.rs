@@ -9,8 +9,11 @@
 //! - The channels, head and tail × left and right, recording a run ([`channels`]) with
 //!   their noise and faults ([`faults`]); the recording, its raw speeds and its true
 //!   speeds ([`recording`]).
+//! - The paper's pipeline ([`paper`]), ours on the positions ([`ours`]), their scores
+//!   ([`metrics`]) and the command that compares them ([`compare`]).
 
 pub mod channels;
+pub mod compare;
 pub mod faults;
 pub mod metrics;
 pub mod ours;
