@@ -54,4 +54,4 @@ pub use linalg::SymmetricEigen;
 pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
-pub use supervisor::{Channel, FaultChange, Outcome, RowOutcome, Supervisor, SupervisorSettings};
+pub use supervisor::{Channel, FaultChange, Outcome, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings};

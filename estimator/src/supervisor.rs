@@ -48,6 +48,18 @@
 //!   0.1–2.7 s). With the budget spent the filter stays lost, predicting
 //!   only, its `P` finite and its health false ([`Supervisor::exhausted`]),
 //!   until its sensors pass the gate again (the user corrects `R`).
+//! * **Quantised bias steps** (optional, [`Supervisor::with_steps`]). Some
+//!   channels fail in steps of a known size that stay: a long-stator position
+//!   channel that miscounts one slot reads 86 mm off from then on. When a
+//!   channel whose bias is a state of the model is rejected
+//!   [`QuantizedSteps::after`] samples in a row (its missing and stuck samples
+//!   skipped) with its innovation each time within [`QuantizedSteps::tolerance`]
+//!   of the same non-zero multiple of [`QuantizedSteps::quantum`], the bias
+//!   state's mean is moved by that multiple (its covariance kept: the quantum
+//!   is exact) and the step reported ([`Outcome::steps`]). A spike fails one
+//!   sample and the next passes; re-acquisition instead would inflate every
+//!   state, the unobservable ones too (S4: a slip shared out over the other
+//!   channels, the position's σ from 0.025 to 4,100 m).
 //! * **Consistency.** Each available row's normalised innovation `νᵢ²/Sᵢᵢ`
 //!   (before the gate, clipped at the gate's threshold so that one glitch
 //!   cannot flag a window), summed over the last
@@ -146,6 +158,20 @@ impl SupervisorSettings {
     }
 }
 
+/// The steps of a known size some channels' biases take (see the module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuantizedSteps {
+    /// The size of one step (the measurement's unit).
+    pub quantum: f64,
+    /// Consecutive rejected samples at the same multiple before the step is taken (≥ 2:
+    /// a spike lasts one).
+    pub after: u32,
+    /// How close to the multiple the innovation must come (less than half the quantum).
+    pub tolerance: f64,
+    /// Per measurement row: the state that carries its bias, if it has one.
+    pub bias_states: Vec<Option<usize>>,
+}
+
 /// What became of one measurement row in an update.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RowOutcome {
@@ -180,6 +206,11 @@ pub struct Outcome {
     pub clipped_ratios: f64,
     /// How many rows that sum has.
     pub gated_rows: usize,
+    /// Per row: the bias step taken (0 for none; see [`QuantizedSteps`]).
+    pub steps: Vec<f64>,
+    /// Per row: the multiple its rejected innovations sit at and how many in a row,
+    /// once committed.
+    watch: Vec<(i64, u32)>,
 }
 
 /// The state of one measurement channel.
@@ -203,6 +234,9 @@ pub struct Channel {
     /// The last finite value and how many times in a row it came.
     last_value: u64,
     repeats: u32,
+    /// The multiple of the quantum its rejected innovations sit at, and how many in a row.
+    step_multiple: i64,
+    step_run: u32,
 }
 
 /// A change of a channel's fault flag, for a driver to report once per episode.
@@ -238,6 +272,10 @@ pub struct Supervisor {
     consistent: bool,
     window_nis: f64,
     pending: Outcome,
+    /// Quantised bias steps, when the model has them.
+    steps: Option<QuantizedSteps>,
+    /// The first pass's residual per row (NaN where not available).
+    residuals: Vec<f64>,
     before: Snapshot,
     /// The measurement of the pending outcome, as offered.
     z_offered: Vec<f64>,
@@ -281,7 +319,11 @@ impl Supervisor {
                 worst_ratio: 0.0,
                 clipped_ratios: 0.0,
                 gated_rows: 0,
+                steps: vec![0.0; m],
+                watch: vec![(0, 0); m],
             },
+            steps: None,
+            residuals: vec![f64::NAN; m],
             before: Snapshot {
                 kind: crate::FilterKind::Ckf,
                 time: 0.0,
@@ -292,6 +334,23 @@ impl Supervisor {
             z_offered: vec![f64::NAN; m],
             z_gated: vec![f64::NAN; m],
         })
+    }
+
+    /// With quantised bias steps for the rows that have a bias state.
+    pub fn with_steps(mut self, steps: QuantizedSteps) -> Result<Self, FilterError> {
+        let bad = |why: String| Err(FilterError::InvalidSetting(why));
+        if !(steps.quantum > 0.0 && steps.quantum.is_finite()) {
+            return bad(format!("the step quantum must be positive, got {}", steps.quantum));
+        }
+        if !(steps.tolerance > 0.0 && steps.tolerance < steps.quantum / 2.0) {
+            return bad(format!("the step tolerance must be in (0, quantum/2), got {}", steps.tolerance));
+        }
+        if steps.after < 2 {
+            return bad("a step must be seen on at least 2 samples: a spike lasts one".into());
+        }
+        crate::error::check_len("bias states", self.channels.len(), steps.bias_states.len())?;
+        self.steps = Some(steps);
+        Ok(self)
     }
 
     /// The settings.
@@ -324,6 +383,8 @@ impl Supervisor {
         self.pending.worst_ratio = 0.0;
         self.pending.clipped_ratios = 0.0;
         self.pending.gated_rows = 0;
+        self.pending.steps.fill(0.0);
+        self.residuals.fill(f64::NAN);
         filter.snapshot_into(&mut self.before);
         // `first`: no row was left out by the gate yet (implausible ones aside),
         // so a re-acquisition may still be decided; the ratios are taken once.
@@ -350,6 +411,9 @@ impl Supervisor {
                 let clip = self.row_threshold.min(1e6);
                 self.pending.clipped_ratios = rows.iter().map(|&r| ratio(r).min(clip)).sum();
                 self.pending.gated_rows = dof;
+                for &r in rows {
+                    self.residuals[r] = innovation.residual()[r];
+                }
             }
             if failing == 0 && !vector_fails {
                 break;
@@ -411,7 +475,46 @@ impl Supervisor {
             filter.restore(&self.before)?;
             first = false;
         }
+        self.take_steps(filter)?;
         Ok(&self.pending)
+    }
+
+    /// Watches the rejected rows for a quantised bias step and takes the steps seen
+    /// often enough (see [`QuantizedSteps`]).
+    fn take_steps(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        let Some(steps) = &self.steps else { return Ok(()) };
+        let mut moved = false;
+        for (c, channel) in self.channels.iter().enumerate() {
+            let committed = (channel.step_multiple, channel.step_run);
+            self.pending.watch[c] = match self.pending.rows[c] {
+                RowOutcome::Used => (0, 0),
+                RowOutcome::Missing | RowOutcome::Stuck => committed,
+                RowOutcome::Rejected => {
+                    let multiple = (self.residuals[c] / steps.quantum).round();
+                    let near = (self.residuals[c] - multiple * steps.quantum).abs() <= steps.tolerance;
+                    match (near && multiple != 0.0 && multiple.abs() < 1e9, committed) {
+                        (false, _) => (0, 0),
+                        (true, (m, run)) if m == multiple as i64 => (m, run + 1),
+                        (true, _) => (multiple as i64, 1),
+                    }
+                }
+            };
+            let (multiple, run) = self.pending.watch[c];
+            if let (Some(state), true) = (steps.bias_states[c], run >= steps.after) {
+                if !moved {
+                    filter.snapshot_into(&mut self.before);
+                    moved = true;
+                }
+                let step = multiple as f64 * steps.quantum;
+                self.before.mean[state] += step;
+                self.pending.steps[c] = step;
+                self.pending.watch[c] = (0, 0);
+            }
+        }
+        if moved {
+            filter.restore(&self.before)?;
+        }
+        Ok(())
     }
 
     /// The channels, by row of `z`.
@@ -492,6 +595,8 @@ impl Supervisor {
                 u64::from(c.suspended),
                 c.last_value,
                 u64::from(c.repeats),
+                c.step_multiple as u64,
+                u64::from(c.step_run),
             ]);
         }
         out.extend([
@@ -514,7 +619,7 @@ impl Supervisor {
     pub fn load(&mut self, words: &[u64]) -> Result<(), FilterError> {
         let m = self.channels.len();
         let w = self.ring.len();
-        let expected = 9 * m + 8 + 2 * w;
+        let expected = 11 * m + 8 + 2 * w;
         crate::error::check_len("supervisor memory", expected, words.len())?;
         let small = |v: u64| {
             u32::try_from(v).map_err(|_| FilterError::InvalidSetting(format!("supervisor memory: {v} is out of range")))
@@ -525,7 +630,7 @@ impl Supervisor {
             _ => Err(FilterError::InvalidSetting(format!("supervisor memory: {v} is not a flag"))),
         };
         let mut channels = self.channels.clone();
-        for (c, chunk) in channels.iter_mut().zip(words.chunks_exact(9)) {
+        for (c, chunk) in channels.iter_mut().zip(words.chunks_exact(11)) {
             *c = Channel {
                 bad_run: small(chunk[0])?,
                 rejected_run: small(chunk[1])?,
@@ -536,9 +641,11 @@ impl Supervisor {
                 suspended: flag(chunk[6])?,
                 last_value: chunk[7],
                 repeats: small(chunk[8])?,
+                step_multiple: chunk[9] as i64,
+                step_run: small(chunk[10])?,
             };
         }
-        let rest = &words[9 * m..];
+        let rest = &words[11 * m..];
         let (ring_at, ring_len) = (rest[3] as usize, rest[4] as usize);
         if ring_at >= w || ring_len > w {
             return Err(FilterError::InvalidSetting("supervisor memory: window position out of range".into()));
@@ -603,6 +710,7 @@ impl Supervisor {
                 state.repeats = if same { state.repeats.saturating_add(1) } else { 1 };
                 state.last_value = z.to_bits();
             }
+            (state.step_multiple, state.step_run) = outcome.watch[channel];
             let faulty = state.bad_run >= self.settings.fault_after;
             if faulty != state.faulty {
                 state.faulty = faulty;

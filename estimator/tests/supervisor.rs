@@ -306,3 +306,83 @@ fn a_saved_memory_continues_exactly_and_a_corrupt_one_is_refused() {
         assert_eq!(fresh.rejected(), 0, "a refused memory changes nothing");
     }
 }
+
+#[test]
+fn a_quantised_bias_step_is_taken_into_its_bias_state_and_a_spike_is_not() {
+    // S4's four position channels, each with its offset as a state: channel 2 slips by
+    // one slot (0.086 m) for good at telegram 150; channel 0 has a spike of one slot at
+    // 100. With quantised steps the slip is taken into channel 2's offset after `after`
+    // rejected telegrams at that multiple, and nothing else moves; the spike is rejected
+    // once and taken for nothing. The watch is part of the saved memory.
+    use estimator::models::PrwTrain;
+    use estimator::{Gaussian, QuantizedSteps};
+    let model =
+        PrwTrain { jerk_intensity: 1.0, channel_noise_std: 1.5e-3, ..PrwTrain::new([25.0, 25.0, -25.0, -25.0]) };
+    let noise = model.noise(0.02).unwrap();
+    let offsets = [0.03, -0.02, 0.01, -0.04];
+    let prior =
+        Gaussian::diagonal(&[0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0], &[1e-2, 1e-2, 1e-2, 2.5e-3, 2.5e-3, 2.5e-3, 2.5e-3]);
+    let steps = QuantizedSteps {
+        quantum: 0.086,
+        after: 3,
+        tolerance: 0.01,
+        bias_states: (0..4).map(|c| Some(PrwTrain::OFFSETS + c)).collect(),
+    };
+    let mut noise_rng = rng(21);
+    let zs: Vec<Vec<f64>> = (0..300)
+        .map(|k| {
+            let s = 5.0 * 0.02 * k as f64;
+            (0..4)
+                .map(|c| {
+                    let mut z = s + model.levers[c] + offsets[c] + 1.5e-3 * normal(&mut noise_rng);
+                    if c == 2 && k >= 150 {
+                        z += 0.086;
+                    }
+                    if c == 0 && k == 100 {
+                        z += 0.086;
+                    }
+                    z
+                })
+                .collect()
+        })
+        .collect();
+    for kind in FilterKind::ALL {
+        let mut f = build_filter(kind, model, noise.clone(), &prior, UnscentedParams::default()).unwrap();
+        let mut s = Supervisor::new(SupervisorSettings::default(), 4).unwrap().with_steps(steps.clone()).unwrap();
+        let mut taken = Vec::new();
+        let mut saved = None;
+        for (k, z) in zs.iter().enumerate() {
+            if k > 0 {
+                f.predict(&[], 0.02).unwrap();
+            }
+            let outcome = s.gate(f.as_mut(), z).unwrap();
+            for (c, step) in outcome.steps.iter().enumerate().filter(|(_, step)| **step != 0.0) {
+                taken.push((k, c, *step));
+            }
+            s.commit(|_| {});
+            if k == 151 {
+                // Mid-watch: two rejections of channel 2 at +1 slot are remembered.
+                let mut words = Vec::new();
+                s.save(&mut words);
+                saved = Some((words, f.snapshot()));
+            }
+        }
+        assert_eq!(taken, vec![(152, 2, 0.086)], "{kind}");
+        let offset = f.mean()[PrwTrain::OFFSETS + 2] - f.mean().iter().skip(PrwTrain::OFFSETS).sum::<f64>() / 4.0;
+        let truth = offsets[2] + 0.086 - (offsets.iter().sum::<f64>() + 0.086) / 4.0;
+        assert!((offset - truth).abs() < 3e-3, "{kind}: {offset} against {truth}");
+        assert_eq!(s.channels()[0].rejected, 1, "{kind}: the spike");
+        // The saved memory carries the watch: resumed at 152 it takes the same step.
+        let (words, snapshot) = saved.unwrap();
+        let mut g = build_filter(kind, model, noise.clone(), &prior, UnscentedParams::default()).unwrap();
+        g.restore(&snapshot).unwrap();
+        let mut t = Supervisor::new(SupervisorSettings::default(), 4).unwrap().with_steps(steps.clone()).unwrap();
+        t.load(&words).unwrap();
+        g.predict(&[], 0.02).unwrap();
+        assert_eq!(t.gate(g.as_mut(), &zs[152]).unwrap().steps, vec![0.0, 0.0, 0.086, 0.0], "{kind}");
+    }
+    let bad = QuantizedSteps { after: 1, ..steps.clone() };
+    assert!(Supervisor::new(SupervisorSettings::default(), 4).unwrap().with_steps(bad).is_err());
+    let bad = QuantizedSteps { tolerance: 0.05, ..steps };
+    assert!(Supervisor::new(SupervisorSettings::default(), 4).unwrap().with_steps(bad).is_err());
+}

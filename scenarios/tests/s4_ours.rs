@@ -118,11 +118,11 @@ fn check_faults(recording: &Recording, out: &Run, label: &str) -> f64 {
         let detected = match f.kind {
             FaultKind::Spike { .. } => {
                 let k = f.telegrams.start;
-                out.estimates[k].rejected[c] && out.estimates[k].weights[c] == 0.0
+                out.estimates[k].rejected[c]
             }
             FaultKind::Dropout | FaultKind::Resend => f.telegrams.clone().all(|k| {
                 let e = &out.estimates[k];
-                e.stale[c] && !e.rejected[c] && e.weights[c] == 0.0
+                e.stale[c] && !e.rejected[c]
             }),
             FaultKind::SlotSlip { step } => {
                 let k = f.telegrams.start;

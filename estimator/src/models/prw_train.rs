@@ -130,6 +130,48 @@ impl PrwTrain {
         r
     }
 
+    /// Each channel's share in the correction of the speed by a telegram of all the
+    /// channels `included`: `|K_v,i| / Σⱼ |K_v,j|` with `K = P·Hᵀ·(H·P·Hᵀ + R)⁻¹` from the
+    /// covariance `p` (`7 × 7`, or larger with the state first) over those rows; 0 for a
+    /// channel not included, and for all when none is (or `H·P·Hᵀ + R` is singular).
+    /// With the four in and their offsets learnt each weighs about ¼.
+    pub fn speed_weights(&self, p: &DMatrix<f64>, included: [bool; 4]) -> [f64; 4] {
+        let r = self.channel_noise_std * self.channel_noise_std;
+        // Row i of H is e_s + e_dᵢ: P·Hᵀ's column i and H·P·Hᵀ's entries from P directly;
+        // a channel left out is decoupled (identity in S, zero in P·Hᵀ).
+        let (s, v) = (Self::POSITION, Self::SPEED);
+        let d = |i: usize| Self::OFFSETS + i;
+        let mut innovation = nalgebra::Matrix4::<f64>::identity();
+        let mut speed_cross = nalgebra::RowVector4::<f64>::zeros();
+        for i in (0..4).filter(|&i| included[i]) {
+            speed_cross[i] = p[(v, s)] + p[(v, d(i))];
+            for j in (0..4).filter(|&j| included[j]) {
+                innovation[(i, j)] = p[(s, s)] + p[(s, d(j))] + p[(d(i), s)] + p[(d(i), d(j))];
+            }
+            innovation[(i, i)] += r;
+        }
+        let mut weights = [0.0; 4];
+        let Some(inverse) = innovation.try_inverse() else { return weights };
+        let gain = speed_cross * inverse;
+        let total: f64 = (0..4).filter(|&i| included[i]).map(|i| gain[i].abs()).sum();
+        if total > 0.0 && total.is_finite() {
+            for i in (0..4).filter(|&i| included[i]) {
+                weights[i] = gain[i].abs() / total;
+            }
+        }
+        weights
+    }
+
+    /// The mean speed over the last `dt` (the paper's `ΔP/Δt`, on the fused position)
+    /// from the state `x` and its covariance `p`: `v − a·Δt/2`, exact under the model's
+    /// constant acceleration, with its standard deviation `√(P_vv − Δt·P_va + Δt²/4·P_aa)`.
+    pub fn interval_speed(x: &[f64], p: &DMatrix<f64>, dt: f64) -> (f64, f64) {
+        let (v, a) = (Self::SPEED, Self::ACCELERATION);
+        let mean = x[v] - x[a] * dt / 2.0;
+        let variance = p[(v, v)] - dt * p[(v, a)] + dt * dt / 4.0 * p[(a, a)];
+        (mean, variance.max(0.0).sqrt())
+    }
+
     /// `Q` over `dt` and `R`, for a filter that steps every `dt`.
     pub fn noise(&self, dt: f64) -> Result<Noise, FilterError> {
         Noise::new(self.process_noise(dt), self.measurement_noise())
@@ -293,6 +335,57 @@ mod tests {
         assert_eq!(model.measurement_dim(), 5);
         assert_eq!(train().measurement_dim(), 4);
         assert_eq!(model.measurement_noise()[(4, 4)], 1e-4);
+    }
+
+    #[test]
+    fn the_speed_weights_are_the_gain_s_shares_and_leave_out_what_is_excluded() {
+        let model = train();
+        // Learnt offsets (small σ), a loose position and speed: the four channels equal.
+        let mut p = DMatrix::<f64>::zeros(7, 7);
+        let diagonal = [1e-4, 1e-3, 1e-2, 1e-8, 1e-8, 1e-8, 1e-8];
+        for (i, v) in diagonal.iter().enumerate() {
+            p[(i, i)] = *v;
+        }
+        p[(0, 1)] = 2e-4;
+        p[(1, 0)] = 2e-4;
+        let w = model.speed_weights(&p, [true; 4]);
+        for wi in w {
+            assert!((wi - 0.25).abs() < 1e-9, "{w:?}");
+        }
+        let w = model.speed_weights(&p, [true, false, true, true]);
+        assert_eq!(w[1], 0.0);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12 && (w[0] - 1.0 / 3.0).abs() < 1e-9, "{w:?}");
+        // A channel whose offset is still unknown moves the speed less.
+        p[(3, 3)] = 1e-2;
+        let w = model.speed_weights(&p, [true; 4]);
+        assert!(w[0] < w[1] && (w[1] - w[2]).abs() < 1e-9, "{w:?}");
+        // Against the gain computed with nalgebra's general inverse.
+        let mut h = DMatrix::<f64>::zeros(4, 7);
+        for i in 0..4 {
+            h[(i, 0)] = 1.0;
+            h[(i, 3 + i)] = 1.0;
+        }
+        let s = &h * &p * h.transpose() + DMatrix::<f64>::identity(4, 4) * 1.5e-3f64.powi(2);
+        let k = &p * h.transpose() * s.try_inverse().unwrap();
+        let total: f64 = (0..4).map(|i| k[(1, i)].abs()).sum();
+        for i in 0..4 {
+            assert!((w[i] - k[(1, i)].abs() / total).abs() < 1e-9, "{w:?}");
+        }
+        assert_eq!(model.speed_weights(&p, [false; 4]), [0.0; 4]);
+    }
+
+    #[test]
+    fn the_interval_speed_is_the_mean_speed_over_the_last_interval() {
+        let x = [0.0, 5.6, 2.5, 0.0, 0.0, 0.0, 0.0];
+        let mut p = DMatrix::<f64>::zeros(7, 7);
+        p[(1, 1)] = 4e-4;
+        p[(2, 2)] = 1e-2;
+        p[(1, 2)] = 1e-4;
+        p[(2, 1)] = 1e-4;
+        let (speed, std) = PrwTrain::interval_speed(&x, &p, 0.02);
+        // Over [t − Δt, t] at constant acceleration: (s(t) − s(t − Δt))/Δt = v − a·Δt/2.
+        assert!((speed - (5.6 - 2.5 * 0.01)).abs() < 1e-15);
+        assert!((std * std - (4e-4 - 0.02 * 1e-4 + 1e-4 * 1e-2)).abs() < 1e-18);
     }
 
     #[test]

@@ -3,37 +3,33 @@
 //! ([`PrwTrain`]), run behind the library's [`Supervisor`] so that a faulty channel is
 //! left out and flagged rather than averaged in. Any [`FilterKind`] runs it.
 //!
-//! Every telegram: predict by Δt, hand the four positions to the gate, commit; then take
-//! in a slot slip if one has shown (below). What happens to each fault of the channel
+//! Every telegram: predict by Δt, hand the four positions to the gate (which takes in a
+//! slot slip once one has shown, below), commit. What happens to each fault of the channel
 //! model (`docs/s4-maglev.md`):
 //!
 //! - **Dropped telegrams** are missing rows (NaN): the train's computer knows that nothing
 //!   arrived (`Recording::received`).
-//! - **Resent telegrams** are missing rows too, decided here before the gate: a position
-//!   bit-identical to the channel's previous one is old content, not a measurement (a
-//!   live channel has noise on every telegram). The supervisor's stuck detection would
-//!   also catch a repeat, but only from its `stuck_after`-th value (≥ 2 by its settings,
-//!   5 by default), so the first repeats of a burst would enter as fresh positions and
-//!   pull the speed towards 0; and a resend is not a sensor fault, so it should not count
-//!   as one. The test needs no estimate of whether the train moves: standing, a missed
-//!   repeat loses nothing. The supervisor's stuck detection stays on (default 5) for a
-//!   channel frozen some other way.
+//! - **Resent telegrams** are stuck: a position bit-identical to the channel's previous
+//!   one is old content, not a measurement (a live channel has noise on every telegram),
+//!   and the supervisor leaves it out from its first repeat (`stuck_after` = 2). A master
+//!   driving the FMU passes the held position through a dropout and the same happens.
 //! - **Spikes** fail the innovation gate on their telegram and are left out.
 //! - **Slot slips** ([`SlipHandling`]): the channel's position steps by ±86 mm for good.
-//!   The default, [`SlipHandling::Rebase`], watches the gate: a channel rejected on
+//!   The default, [`SlipHandling::Rebase`], is the supervisor's quantised bias steps
+//!   ([`QuantizedSteps`], quantum the slot pitch): a channel rejected on
 //!   [`Settings::slip_after`] of its telegrams in a row (missing ones skipped) whose
 //!   innovation sits each time within [`Settings::slip_tolerance`] of the same non-zero
-//!   multiple of the slot pitch has slipped by that multiple; its offset estimate is
-//!   re-based by it (the mean shifted, the covariance kept: the pitch is exact) and the slip
-//!   is reported. A spike cannot do that: it lasts one telegram and the next comes
-//!   through clean. The alternative, [`SlipHandling::Reacquire`], leaves the slip to the
-//!   supervisor: after `reacquire_after` (10) failures it inflates the whole covariance
-//!   and uses every row. Measured on the paper's run (seed 1, SRCKF; `tests/s4_ours.rs`)
-//!   it fails, for two reasons. The inflated covariance cannot tell one channel's slip
-//!   from the train and the other three channels moving, so the step is shared out
-//!   (by the offsets' prior: three quarters to the slipped offset, a quarter to the
-//!   position and, with the other sign, to each of the other three offsets); the others then fail the gate in turn and re-acquire too. And the
-//!   inflation also multiplies the unobservable direction (the common offset, see
+//!   multiple of the pitch has slipped by that multiple; its offset estimate is re-based
+//!   by it (the mean shifted, the covariance kept: the pitch is exact) and the slip is
+//!   reported. A spike cannot do that: it lasts one telegram and the next comes through
+//!   clean. The alternative, [`SlipHandling::Reacquire`], leaves the slip to the
+//!   supervisor's re-acquisition: after `reacquire_after` (10) failures it inflates the
+//!   whole covariance and uses every row. Measured on the paper's run (seed 1, SRCKF;
+//!   `tests/s4_ours.rs`) it fails, for two reasons. The inflated covariance cannot tell
+//!   one channel's slip from the train and the other three channels moving, so the step
+//!   is shared out (three quarters to the slipped offset, a quarter to the position and
+//!   the other three offsets); the others then fail the gate in turn and re-acquire too.
+//!   And the inflation also multiplies the unobservable direction (the common offset, see
 //!   [`PrwTrain`]), which no measurement shrinks again: the position's σ went from
 //!   0.025 m to 4,100 m over six re-acquisitions, the filter was unhealthy for 2,681
 //!   telegrams, lost the gate for whole telegrams, and the speed error reached 6.0 m/s
@@ -47,14 +43,18 @@
 //! the four installation offsets (|mean| ≤ 50 mm by the fault model), which no data can
 //! separate. Slips do not move it: a re-based slip goes into its channel's offset.
 //!
-//! **The channel weights.** The share of channel `i` in the speed's update at a
-//! telegram is `|K_v,i| / Σⱼ |K_v,j|`, `K_v` the Kalman gain's speed row for the rows
-//! used, from the predicted covariance: how much of the speed's correction comes from
-//! that channel. A channel left out (missing, resent, rejected) weighs 0; with all four in
-//! and their offsets learnt, each weighs about ¼.
+//! **The channel weights** ([`PrwTrain::speed_weights`]): each channel's share in the
+//! correction of the speed by the next telegram, `|K_v,i| / Σⱼ |K_v,j|` from the
+//! covariance after the update, over the channels not flagged faulty; a faulty channel
+//! weighs 0; with all four in and their offsets learnt, each weighs about ¼.
+//!
+//! The filter has the marker row of [`PrwTrain`], missing throughout: our recordings have
+//! no markers, and the estimator FMU has the row.
 
 use estimator::models::PrwTrain;
-use estimator::{build_filter, FilterKind, Gaussian, RowOutcome, Supervisor, SupervisorSettings, UnscentedParams};
+use estimator::{
+    build_filter, FilterKind, Gaussian, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings, UnscentedParams,
+};
 use nalgebra::DMatrix;
 
 use super::channels::Channel;
@@ -70,6 +70,8 @@ pub struct Tuning {
     pub offset_walk: f64,
     /// Each channel's position noise (m), the sensor's specification: `R = σ²`.
     pub channel_noise_std: f64,
+    /// A marker reading's noise (m).
+    pub marker_noise_std: f64,
     /// Prior σ of each channel's offset (m).
     pub offset_prior_std: f64,
     /// Prior σ of the position around the first telegram's mean reading (m).
@@ -99,6 +101,8 @@ impl Tuning {
     ///   1–2 mm), not a value fitted to the simulator's truth.
     /// - Offsets: prior σ 0.05 m, the largest installation error the fault model
     ///   allows; constants (no walk: nothing in the fault model drifts).
+    /// - A marker reading to 0.01 m [est: a balise's position on the guideway surveyed to
+    ///   the centimetre]; no recording of ours has markers yet.
     /// - Position σ 1 m around the first telegram's mean reading less its lever (vague, so
     ///   that reading is not counted twice); speed σ 150 m/s and acceleration σ 3 m/s²
     ///   around 0: the filter starts without knowing the motion.
@@ -107,6 +111,7 @@ impl Tuning {
             jerk_intensity: 10.0,
             offset_walk: 0.0,
             channel_noise_std: 1.5e-3,
+            marker_noise_std: 0.01,
             offset_prior_std: 0.05,
             position_prior_std: 1.0,
             speed_prior_std: 150.0,
@@ -126,12 +131,15 @@ impl Tuning {
         Self { jerk_intensity: 0.01, ..Self::paper() }
     }
 
-    /// The model with these numbers and `levers`.
+    /// The model with these numbers and `levers`, with the marker row (missing where no
+    /// marker passes, as everywhere in our recordings).
     pub fn model(&self, levers: [f64; 4]) -> PrwTrain {
         PrwTrain {
+            marker: true,
             jerk_intensity: self.jerk_intensity,
             offset_walk: self.offset_walk,
             channel_noise_std: self.channel_noise_std,
+            marker_noise_std: self.marker_noise_std,
             ..PrwTrain::new(levers)
         }
     }
@@ -172,7 +180,9 @@ impl Settings {
         Self {
             kind,
             tuning,
-            supervisor: SupervisorSettings::default(),
+            // A live position channel never repeats a reading bit for bit: a resent
+            // telegram is stuck from its first repeat.
+            supervisor: SupervisorSettings { stuck_after: 2, ..SupervisorSettings::default() },
             slips: SlipHandling::Rebase,
             slip_after: 3,
             slip_tolerance: 0.01,
@@ -199,14 +209,16 @@ pub struct Estimate {
     pub offsets: [f64; 4],
     /// Their σ.
     pub offset_std: [f64; 4],
-    /// Left out before the gate: not received, or its content repeated (a resend).
+    /// Left out before the gate: not received (missing), or its content repeated (a
+    /// resend, stuck).
     pub stale: [bool; 4],
     /// Rejected by the gate at this telegram.
     pub rejected: [bool; 4],
     /// The supervisor's fault flag: the channel's last `fault_after` telegrams were all
     /// left out (missing, stale, rejected or stuck).
     pub faulty: [bool; 4],
-    /// Each channel's share in the speed's update (module documentation).
+    /// Each channel's share in the speed's correction ([`PrwTrain::speed_weights`]) over
+    /// the channels not faulty.
     pub weights: [f64; 4],
     /// The channel whose persistent failure made the supervisor re-acquire here.
     pub reacquired: Option<Channel>,
@@ -240,13 +252,6 @@ pub struct Run {
     pub slips: Vec<SlipEvent>,
 }
 
-/// A channel's run of innovations at a multiple of the slot pitch.
-#[derive(Debug, Clone, Copy, Default)]
-struct SlipWatch {
-    multiple: i64,
-    run: u32,
-}
-
 /// Runs the filter of `settings` over `recording` (see the module documentation).
 pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
     let n = recording.n_telegrams();
@@ -271,74 +276,49 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
     );
     let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let mut filter = build_filter(settings.kind, model, noise, &prior, unscented).map_err(|e| format!("setup: {e}"))?;
-    let mut supervisor = Supervisor::new(settings.supervisor, 4).map_err(|e| format!("setup: {e}"))?;
+    let mut supervisor =
+        Supervisor::new(settings.supervisor, PrwTrain::MARKER + 1).map_err(|e| format!("setup: {e}"))?;
+    if settings.slips == SlipHandling::Rebase {
+        let steps = QuantizedSteps {
+            quantum: SLOT_PITCH,
+            after: settings.slip_after,
+            tolerance: settings.slip_tolerance,
+            bias_states: (0..=PrwTrain::MARKER).map(|c| (c < 4).then_some(PrwTrain::OFFSETS + c)).collect(),
+        };
+        supervisor = supervisor.with_steps(steps).map_err(|e| format!("setup: {e}"))?;
+    }
 
-    let r = tuning.channel_noise_std.powi(2);
-    let mut p = DMatrix::zeros(PrwTrain::STATES, PrwTrain::STATES);
-    let mut watch = [SlipWatch::default(); 4];
-    let mut snapshot = filter.snapshot();
     let mut out =
         Run { kind: settings.kind, estimates: Vec::with_capacity(n), reacquisitions: [0; 4], slips: Vec::new() };
+    let mut p = DMatrix::zeros(PrwTrain::STATES, PrwTrain::STATES);
     for k in 0..n {
         if k > 0 {
             filter.predict(&[], dt).map_err(|e| format!("telegram {k}: {e}"))?;
         }
-        let mut z = [f64::NAN; 4];
-        let mut stale = [false; 4];
-        for c in 0..4 {
-            let position = recording.position[c][k];
-            stale[c] =
-                !recording.received[c][k] || (k > 0 && position.to_bits() == recording.position[c][k - 1].to_bits());
-            if !stale[c] {
-                z[c] = position;
+        // A dropped telegram is known not to have arrived; a resent one arrives, its
+        // content old: the supervisor finds it stuck (see the module documentation).
+        let mut z = [f64::NAN; 5];
+        for (zc, (position, received)) in z.iter_mut().zip(recording.position.iter().zip(&recording.received)) {
+            if received[k] {
+                *zc = position[k];
             }
         }
-        // The predicted measurement and covariance, for the slip watch and the weights.
-        let predicted: [f64; 4] = {
-            let x = filter.mean();
-            std::array::from_fn(|c| x[PrwTrain::POSITION] + levers[c] + x[PrwTrain::OFFSETS + c])
-        };
-        filter.write_covariance(&mut p);
         let outcome = supervisor.gate(filter.as_mut(), &z).map_err(|e| format!("telegram {k}: {e}"))?;
         let rows: [RowOutcome; 4] = std::array::from_fn(|c| outcome.rows[c]);
+        let slip: [f64; 4] = std::array::from_fn(|c| outcome.steps[c]);
         let reacquired = outcome.reacquired;
         supervisor.commit(|_| {});
         if let Some(c) = reacquired {
             out.reacquisitions[c] += 1;
         }
-
-        let mut slip = [0.0; 4];
-        if settings.slips == SlipHandling::Rebase {
-            for c in 0..4 {
-                match rows[c] {
-                    RowOutcome::Used => watch[c] = SlipWatch::default(),
-                    RowOutcome::Rejected => {
-                        let innovation = z[c] - predicted[c];
-                        let multiple = (innovation / SLOT_PITCH).round() as i64;
-                        let near = (innovation - multiple as f64 * SLOT_PITCH).abs() <= settings.slip_tolerance;
-                        watch[c] = match (multiple != 0 && near, watch[c]) {
-                            (false, _) => SlipWatch::default(),
-                            (true, w) if w.multiple == multiple => SlipWatch { multiple, run: w.run + 1 },
-                            (true, _) => SlipWatch { multiple, run: 1 },
-                        };
-                    }
-                    RowOutcome::Missing | RowOutcome::Stuck => {}
-                }
-                if watch[c].run >= settings.slip_after {
-                    let step = watch[c].multiple as f64 * SLOT_PITCH;
-                    filter.snapshot_into(&mut snapshot);
-                    snapshot.mean[PrwTrain::OFFSETS + c] += step;
-                    filter.restore(&snapshot).map_err(|e| format!("telegram {k}: {e}"))?;
-                    slip[c] = step;
-                    out.slips.push(SlipEvent { telegram: k, channel: Channel::ALL[c], step });
-                    watch[c] = SlipWatch::default();
-                }
-            }
+        for (c, &step) in slip.iter().enumerate().filter(|(_, step)| **step != 0.0) {
+            out.slips.push(SlipEvent { telegram: k, channel: Channel::ALL[c], step });
         }
-
         let x = filter.mean();
-        let std = |i: usize| filter.variance(i).max(0.0).sqrt();
+        filter.write_covariance(&mut p);
+        let std = |i: usize| p[(i, i)].max(0.0).sqrt();
         let channels = supervisor.channels();
+        let faulty: [bool; 4] = std::array::from_fn(|c| channels[c].faulty);
         out.estimates.push(Estimate {
             position: x[PrwTrain::POSITION],
             speed: x[PrwTrain::SPEED],
@@ -348,44 +328,14 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
             acceleration_std: std(PrwTrain::ACCELERATION),
             offsets: std::array::from_fn(|c| x[PrwTrain::OFFSETS + c]),
             offset_std: std::array::from_fn(|c| std(PrwTrain::OFFSETS + c)),
-            stale,
+            stale: rows.map(|r| matches!(r, RowOutcome::Missing | RowOutcome::Stuck)),
             rejected: rows.map(|r| r == RowOutcome::Rejected),
-            faulty: std::array::from_fn(|c| channels[c].faulty),
-            weights: speed_weights(&p, r, &rows),
+            faulty,
+            weights: model.speed_weights(&p, faulty.map(|f| !f)),
             reacquired: reacquired.map(|c| Channel::ALL[c]),
             slip,
             healthy: supervisor.healthy(),
         });
     }
     Ok(out)
-}
-
-/// `|K_v,i| / Σⱼ |K_v,j|` over the rows used, `K = P·Hᵀ·(H·P·Hᵀ + R)⁻¹` from the
-/// predicted covariance `p`; 0 for the rows left out.
-fn speed_weights(p: &DMatrix<f64>, r: f64, rows: &[RowOutcome; 4]) -> [f64; 4] {
-    let used: Vec<usize> = (0..4).filter(|&c| rows[c] == RowOutcome::Used).collect();
-    let mut weights = [0.0; 4];
-    if used.is_empty() {
-        return weights;
-    }
-    let m = used.len();
-    // H row of channel c: 1 at the position and at its offset.
-    let mut h = DMatrix::zeros(m, PrwTrain::STATES);
-    for (row, &c) in used.iter().enumerate() {
-        h[(row, PrwTrain::POSITION)] = 1.0;
-        h[(row, PrwTrain::OFFSETS + c)] = 1.0;
-    }
-    let ph = p * h.transpose();
-    let s = &h * &ph + DMatrix::identity(m, m) * r;
-    let Some(s_inv) = s.try_inverse() else {
-        return weights;
-    };
-    let gain = ph.row(PrwTrain::SPEED) * s_inv;
-    let total: f64 = gain.iter().map(|g| g.abs()).sum();
-    if total > 0.0 {
-        for (row, &c) in used.iter().enumerate() {
-            weights[c] = gain[row].abs() / total;
-        }
-    }
-    weights
 }
