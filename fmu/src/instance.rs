@@ -11,11 +11,11 @@ use std::ffi::CString;
 
 use estimator::{StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
 
-use crate::estimators::{self, Descriptor};
+use crate::estimators::{self, Descriptor, MAX_DERIVED};
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
 use crate::state::ModelState;
 use crate::timing::{Estimation, Event, InputTiming, Reading};
-use crate::variables::{Causality, Parameters, Role, Variability, Variable};
+use crate::variables::{Causality, Parameters, Role, Variability};
 
 /// The log categories of `<LogCategories>`.
 pub const LOG_CATEGORIES: [(&str, &str); 4] = [
@@ -276,7 +276,7 @@ impl Instance {
             let nis = filter.innovation().nis();
             let prior =
                 Reading { belief: filter.as_ref(), nis, skipped: 0, rejected: 0, faulty: &faulty, healthy: true };
-            write_outputs(&self.descriptor.variables, &mut self.values, Some(&prior));
+            write_outputs(&self.descriptor, &mut self.values, Some(&prior));
         }
     }
 
@@ -310,7 +310,7 @@ impl Instance {
             // Show the last good estimate, as it is, and say when it was.
             let mut last = estimation.last_reading();
             last.healthy = false;
-            write_outputs(&self.descriptor.variables, &mut self.values, Some(&last));
+            write_outputs(&self.descriptor, &mut self.values, Some(&last));
             self.outputs_stale = false;
             self.state = ModelState::StepFailed;
             self.last_successful_time = failure.last_good;
@@ -359,7 +359,15 @@ impl Instance {
         let input = |row: usize| {
             self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).map_or("?", |v| v.name)
         };
+        // An intermittent input (a marker) is missing most of the time: its flag says nothing.
+        let intermittent =
+            |row: usize| self.descriptor.variables.iter().any(|v| v.role == Role::Measurement(row) && v.intermittent);
         for event in events {
+            if let Event::Fault { channel, .. } = event {
+                if intermittent(channel) {
+                    continue;
+                }
+            }
             let (status, category, text) = match event {
                 Event::Fault { channel, faulty: true, time } => (
                     Fmi2Status::Warning,
@@ -425,13 +433,13 @@ impl Instance {
         let inputs = self.inputs_set.then_some((self.measurement.as_slice(), self.controls.as_slice()));
         let failed = match estimation.read(self.time, inputs, &noise_over) {
             Ok(reading) => {
-                write_outputs(&self.descriptor.variables, &mut self.values, Some(&reading));
+                write_outputs(&self.descriptor, &mut self.values, Some(&reading));
                 None
             }
             Err(why) => Some(why),
         };
         if let Some(why) = failed {
-            write_outputs(&self.descriptor.variables, &mut self.values, None);
+            write_outputs(&self.descriptor, &mut self.values, None);
             self.log(
                 Fmi2Status::Warning,
                 "logStatusWarning",
@@ -462,7 +470,7 @@ impl Instance {
                 let ever_set = self.input_ever_set[row];
                 let z = if ever_set { self.values[i] } else { f64::NAN };
                 self.measurement[row] = z;
-                if !z.is_finite() && !self.missing_reported[row] {
+                if !z.is_finite() && !self.missing_reported[row] && !v.intermittent {
                     self.missing_reported[row] = true;
                     let what = if ever_set { format!("is {z}") } else { "has never been set".to_string() };
                     self.log(
@@ -483,8 +491,12 @@ impl Instance {
 /// deviations, the NIS, the counts and the flags; without one (a read that
 /// could not be computed) the estimates and the NIS are NaN and the filter is
 /// not healthy, the counts stay.
-fn write_outputs(variables: &[Variable], values: &mut [f64], reading: Option<&Reading<'_>>) {
-    for (v, x) in variables.iter().zip(values.iter_mut()) {
+fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&Reading<'_>>) {
+    let mut derived = [f64::NAN; MAX_DERIVED];
+    if let Some(r) = reading {
+        (descriptor.derive)(&Parameters::new(&descriptor.variables, values), r, &mut derived);
+    }
+    for (v, x) in descriptor.variables.iter().zip(values.iter_mut()) {
         match (v.role, reading) {
             (Role::Estimate(i), Some(r)) => *x = r.belief.mean()[i],
             (Role::EstimateStd(i), Some(r)) => *x = r.belief.variance(i).max(0.0).sqrt(),
@@ -493,6 +505,7 @@ fn write_outputs(variables: &[Variable], values: &mut [f64], reading: Option<&Re
             (Role::RejectedMeasurements, Some(r)) => *x = r.rejected as f64,
             (Role::ChannelFault(row), Some(r)) => *x = f64::from(u8::from(r.faulty[row])),
             (Role::FilterHealthy, Some(r)) => *x = f64::from(u8::from(r.healthy)),
+            (Role::Derived(k), _) => *x = derived.get(k).copied().unwrap_or(f64::NAN),
             (Role::Estimate(_) | Role::EstimateStd(_) | Role::Nis, None) => *x = f64::NAN,
             (Role::FilterHealthy, None) => *x = 0.0,
             _ => {}
@@ -543,7 +556,10 @@ pub(crate) fn build_estimation(
         max_inflation: p.get("max_inflation")?,
         ..SupervisorSettings::default()
     };
-    let supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;
+    let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;
+    if let Some(steps) = (descriptor.build_steps)(&p)? {
+        supervisor = supervisor.with_steps(steps).map_err(|e| e.to_string())?;
+    }
     let filter = build_filter(descriptor, values, start_time)?;
     let reader = build_filter(descriptor, values, start_time)?;
     if filter.snapshot().input.len() != controls.len() {

@@ -75,6 +75,8 @@ pub enum Role {
     ChannelFault(usize),
     /// Output: the filter is consistent, not lost, and has not failed.
     FilterHealthy,
+    /// Output `k` of the estimator's derived outputs (`Descriptor::derive`).
+    Derived(usize),
 }
 
 /// One scalar variable.
@@ -100,6 +102,9 @@ pub struct Variable {
     pub max: Option<f64>,
     /// What the FMU layer does with it.
     pub role: Role,
+    /// A measurement that is missing most of the time (a position marker passed now
+    /// and then): its absence is normal, not reported.
+    pub intermittent: bool,
 }
 
 impl Variable {
@@ -116,6 +121,7 @@ impl Variable {
             min: None,
             max: None,
             role: Role::Parameter,
+            intermittent: false,
         }
     }
 
@@ -183,6 +189,11 @@ impl Variable {
         }
     }
 
+    /// An intermittent measurement (see [`Variable::intermittent`]).
+    pub fn intermittent(self) -> Self {
+        Self { intermittent: true, ..self }
+    }
+
     /// With bounds.
     pub fn bounded(self, min: Option<f64>, max: Option<f64>) -> Self {
         Self { min, max, ..self }
@@ -219,6 +230,8 @@ pub const UNITS: &[Unit] = &[
     Unit { name: "N2/s", exponents: [2, 2, -5, 0] },
     Unit { name: "kg.m2", exponents: [1, 2, 0, 0] },
     Unit { name: "m2", exponents: [0, 2, 0, 0] },
+    Unit { name: "m2/s", exponents: [0, 2, -1, 0] },
+    Unit { name: "m2/s5", exponents: [0, 2, -5, 0] },
     Unit { name: "rad", exponents: [0, 0, 0, 1] },
     Unit { name: "rad/s", exponents: [0, 0, -1, 1] },
 ];

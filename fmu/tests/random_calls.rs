@@ -186,6 +186,12 @@ impl Table {
         self.select(|v| matches!(v.role, Role::Estimate(_)))[0]
     }
 
+    /// The estimator's own Integer parameter, the first in table order (S1, S2, S5:
+    /// rk4_substeps; S4: slip_after).
+    fn own_integer(self) -> u32 {
+        self.select(|v| v.causality == Causality::Parameter && v.kind == Kind::Integer)[0]
+    }
+
     /// The first fixed Real parameter (S1: m1; S2: car_body_mass).
     fn fixed_real(self) -> u32 {
         self.select(|v| {
@@ -835,7 +841,7 @@ impl Sequence {
         let mut suspect = false;
         for _ in 0..n {
             let entry = match self.rng.random_range(0..10) {
-                0..=3 => (self.t.vr("rk4_substeps"), self.pick(&[1, 2, 3, 0, -1, 1001, i32::MAX, i32::MIN])),
+                0..=3 => (self.t.own_integer(), self.pick(&[1, 2, 3, 0, -1, 1001, i32::MAX, i32::MIN])),
                 4..=6 => (self.t.vr("filter"), self.pick(&[1, 2, 3, 4, 5, 0, 6, -2])),
                 7 => (self.t.vr("skipped_measurements"), 1),
                 8 => {
@@ -844,8 +850,9 @@ impl Sequence {
                 }
                 _ => (self.bad_vr(), 1),
             };
-            // rk4_substeps up to 3 and every filter kind build a filter from good parameters.
-            suspect |= entry.0 == self.t.vr("rk4_substeps") && entry.1 > 3;
+            // Up to 3 (rk4_substeps, S4's slip_after) and every filter kind build a
+            // filter from good parameters.
+            suspect |= entry.0 == self.t.own_integer() && entry.1 > 3;
             entries.push(entry);
         }
         self.duplicate(&mut entries);
@@ -939,7 +946,7 @@ impl Sequence {
     }
 
     fn get_integer(&mut self, inst: &mut Instance) {
-        let vrs = self.get_vrs(&[self.t.vr("rk4_substeps"), self.t.vr("filter"), self.t.vr("skipped_measurements")]);
+        let vrs = self.get_vrs(&[self.t.own_integer(), self.t.vr("filter"), self.t.vr("skipped_measurements")]);
         let null = self.chance(0.05);
         let n = vrs.len();
         let mut out = vec![-777; n + 1];
@@ -1601,7 +1608,7 @@ fn rejected_calls_leave_the_instance_usable() {
                         (table.fixed_real(), 5.0),
                         (tunables[0], f64::NAN),
                         (tunables[tunables.len() - 1], f64::INFINITY),
-                        (table.vr("rk4_substeps"), 2.0),
+                        (table.own_integer(), 2.0),
                         (999, 0.0),
                     ];
                     for &r in &controls {

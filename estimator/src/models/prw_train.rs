@@ -132,11 +132,11 @@ impl PrwTrain {
 
     /// Each channel's share in the correction of the speed by a telegram of all the
     /// channels `included`: `|K_v,i| / Σⱼ |K_v,j|` with `K = P·Hᵀ·(H·P·Hᵀ + R)⁻¹` from the
-    /// covariance `p` (`7 × 7`, or larger with the state first) over those rows; 0 for a
-    /// channel not included, and for all when none is (or `H·P·Hᵀ + R` is singular).
-    /// With the four in and their offsets learnt each weighs about ¼.
-    pub fn speed_weights(&self, p: &DMatrix<f64>, included: [bool; 4]) -> [f64; 4] {
-        let r = self.channel_noise_std * self.channel_noise_std;
+    /// covariance `p` (`7 × 7`, or larger with the state first) and the channels' noise
+    /// variances `r` over those rows; 0 for a channel not included, and for all when none
+    /// is (or `H·P·Hᵀ + R` is singular). With the four in, equally noisy and their
+    /// offsets learnt, each weighs about ¼.
+    pub fn speed_weights(p: &DMatrix<f64>, r: [f64; 4], included: [bool; 4]) -> [f64; 4] {
         // Row i of H is e_s + e_dᵢ: P·Hᵀ's column i and H·P·Hᵀ's entries from P directly;
         // a channel left out is decoupled (identity in S, zero in P·Hᵀ).
         let (s, v) = (Self::POSITION, Self::SPEED);
@@ -148,7 +148,7 @@ impl PrwTrain {
             for j in (0..4).filter(|&j| included[j]) {
                 innovation[(i, j)] = p[(s, s)] + p[(s, d(j))] + p[(d(i), s)] + p[(d(i), d(j))];
             }
-            innovation[(i, i)] += r;
+            innovation[(i, i)] += r[i];
         }
         let mut weights = [0.0; 4];
         let Some(inverse) = innovation.try_inverse() else { return weights };
@@ -339,7 +339,7 @@ mod tests {
 
     #[test]
     fn the_speed_weights_are_the_gain_s_shares_and_leave_out_what_is_excluded() {
-        let model = train();
+        let r = [1.5e-3f64.powi(2); 4];
         // Learnt offsets (small σ), a loose position and speed: the four channels equal.
         let mut p = DMatrix::<f64>::zeros(7, 7);
         let diagonal = [1e-4, 1e-3, 1e-2, 1e-8, 1e-8, 1e-8, 1e-8];
@@ -348,16 +348,16 @@ mod tests {
         }
         p[(0, 1)] = 2e-4;
         p[(1, 0)] = 2e-4;
-        let w = model.speed_weights(&p, [true; 4]);
+        let w = PrwTrain::speed_weights(&p, r, [true; 4]);
         for wi in w {
             assert!((wi - 0.25).abs() < 1e-9, "{w:?}");
         }
-        let w = model.speed_weights(&p, [true, false, true, true]);
+        let w = PrwTrain::speed_weights(&p, r, [true, false, true, true]);
         assert_eq!(w[1], 0.0);
         assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12 && (w[0] - 1.0 / 3.0).abs() < 1e-9, "{w:?}");
         // A channel whose offset is still unknown moves the speed less.
         p[(3, 3)] = 1e-2;
-        let w = model.speed_weights(&p, [true; 4]);
+        let w = PrwTrain::speed_weights(&p, r, [true; 4]);
         assert!(w[0] < w[1] && (w[1] - w[2]).abs() < 1e-9, "{w:?}");
         // Against the gain computed with nalgebra's general inverse.
         let mut h = DMatrix::<f64>::zeros(4, 7);
@@ -371,7 +371,7 @@ mod tests {
         for i in 0..4 {
             assert!((w[i] - k[(1, i)].abs() / total).abs() < 1e-9, "{w:?}");
         }
-        assert_eq!(model.speed_weights(&p, [false; 4]), [0.0; 4]);
+        assert_eq!(PrwTrain::speed_weights(&p, r, [false; 4]), [0.0; 4]);
     }
 
     #[test]

@@ -5,10 +5,12 @@
 
 mod s1_load;
 mod s2_wheel_rail;
+mod s4_maglev;
 mod s5_missile;
 
-use estimator::{FilterKind, Noise, StateEstimator, SupervisorSettings, UnscentedParams};
+use estimator::{FilterKind, Noise, QuantizedSteps, StateEstimator, SupervisorSettings, UnscentedParams};
 
+use crate::timing::Reading;
 use crate::variables::{Causality, EnumerationType, Kind, Parameters, Role, Variability, Variable};
 
 /// `<DefaultExperiment>`.
@@ -28,6 +30,24 @@ pub type BuildFilter = fn(&Parameters, FilterKind, UnscentedParams, Noise) -> Re
 /// parameter values: `dt` is `sample_time` for the filter, and shorter for the
 /// prediction to a communication point between two samples.
 pub type BuildNoise = fn(&Parameters, f64) -> Result<Noise, String>;
+/// Computes the outputs beyond the states and their σ (`Role::Derived(k)` is
+/// `out[k]`) at each read, from what the read shows and the parameter values.
+pub type Derive = fn(&Parameters, &Reading<'_>, &mut [f64]);
+
+/// The most derived outputs an estimator may have: a read computes them on the stack.
+pub const MAX_DERIVED: usize = 16;
+
+/// For an estimator whose outputs are its states and their σ only.
+pub fn no_derived_outputs(_: &Parameters, _: &Reading<'_>, _: &mut [f64]) {}
+
+/// The quantised bias steps the supervisor takes in, from the parameter values
+/// (`estimator::QuantizedSteps`), if the estimator's channels have any.
+pub type BuildSteps = fn(&Parameters) -> Result<Option<QuantizedSteps>, String>;
+
+/// For an estimator whose channels take no quantised steps.
+pub fn no_quantized_steps(_: &Parameters) -> Result<Option<QuantizedSteps>, String> {
+    Ok(None)
+}
 
 /// Everything that makes one estimator FMU.
 #[derive(Debug)]
@@ -50,6 +70,12 @@ pub struct Descriptor {
     pub build_noise: BuildNoise,
     /// The start value of the `filter` parameter.
     pub default_filter: FilterKind,
+    /// The start values of the supervisor's parameters (gate, fault flags, re-acquisition, consistency).
+    pub supervision: SupervisorSettings,
+    /// The derived outputs.
+    pub derive: Derive,
+    /// The quantised bias steps.
+    pub build_steps: BuildSteps,
     guid: String,
 }
 
@@ -57,7 +83,7 @@ impl Descriptor {
     /// Completes a description: appends the variables every estimator has and
     /// derives the GUID from the whole table.
     fn finish(mut self) -> Self {
-        self.variables.extend(common_variables(self.default_experiment.step, self.default_filter));
+        self.variables.extend(common_variables(self.default_experiment.step, self.default_filter, &self.supervision));
         self.guid = guid_of(self.model_identifier, &self.variables);
         self
     }
@@ -96,7 +122,7 @@ impl Descriptor {
 /// the library keeps no state at all between calls (not even a table it
 /// would never free when an importer unloads it).
 pub fn all() -> Vec<Descriptor> {
-    vec![s1_load::descriptor(), s2_wheel_rail::descriptor(), s5_missile::descriptor()]
+    vec![s1_load::descriptor(), s2_wheel_rail::descriptor(), s4_maglev::descriptor(), s5_missile::descriptor()]
 }
 
 /// The estimator with this GUID.
@@ -149,8 +175,9 @@ fn filter_value(kind: FilterKind) -> f64 {
 }
 
 /// The parameters and outputs every estimator FMU has; `sample_time` starts at the
-/// estimator's default communication step, `filter` at its default method.
-fn common_variables(sample_time: f64, filter: FilterKind) -> Vec<Variable> {
+/// estimator's default communication step, `filter` at its default method, the
+/// supervisor's parameters at the estimator's `supervision`.
+fn common_variables(sample_time: f64, filter: FilterKind, supervision: &SupervisorSettings) -> Vec<Variable> {
     let filter = filter_value(filter);
     vec![
         Variable {
@@ -175,45 +202,45 @@ fn common_variables(sample_time: f64, filter: FilterKind) -> Vec<Variable> {
         Variable::parameter(
             "gate_probability",
             "1",
-            SupervisorSettings::default().gate_probability,
+            supervision.gate_probability,
             "innovation gate: a measurement row of a consistent filter is rejected with probability 1 - this (1: no gate)",
         )
         .bounded(Some(0.5), Some(1.0)),
         Variable::integer_parameter(
             "fault_after",
-            SupervisorSettings::default().fault_after,
+            supervision.fault_after,
             (1, 1_000_000),
             "consecutive samples rejected, stuck or missing that make an input faulty",
         ),
         Variable::integer_parameter(
             "reacquire_after",
-            SupervisorSettings::default().reacquire_after,
+            supervision.reacquire_after,
             (1, 1_000_000),
             "consecutive gate failures of an input before the filter re-acquires (inflates its covariance)",
         ),
         Variable::integer_parameter(
             "stuck_after",
-            SupervisorSettings::default().stuck_after,
+            supervision.stuck_after,
             (2, 1_000_000),
             "consecutive bit-identical values that make an input stuck (left out until it changes)",
         ),
         Variable::integer_parameter(
             "consistency_window",
-            SupervisorSettings::default().window as u32,
+            supervision.window as u32,
             (1, 1_000_000),
             "samples over which the normalised innovations are summed for filter_healthy",
         ),
         Variable::parameter(
             "consistency_margin",
             "1",
-            SupervisorSettings::default().consistency_margin,
+            supervision.consistency_margin,
             "how far above its chi-square bound the windowed innovation may go before the filter is inconsistent",
         )
         .bounded(Some(1.0), None),
         Variable::parameter(
             "max_inflation",
             "1",
-            SupervisorSettings::default().max_inflation,
+            supervision.max_inflation,
             "the most re-acquisitions may multiply the covariance by in total until a sample passes the gate whole",
         )
         .bounded(Some(1.0), None),
@@ -279,17 +306,22 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
     }
     let m = descriptor.measurement_dim();
     for row in 0..m {
-        if !vars.iter().any(|v| v.role == Role::Measurement(row)) {
+        let Some(input) = vars.iter().find(|v| v.role == Role::Measurement(row)) else {
             return Err(format!("measurement row {row} has no input"));
-        }
-        if !vars.iter().any(|v| v.role == Role::ChannelFault(row)) {
-            return Err(format!("measurement row {row} has no fault flag output"));
+        };
+        // An intermittent input is missing most of the time: a fault flag would say nothing.
+        let flagged = vars.iter().any(|v| v.role == Role::ChannelFault(row));
+        if flagged == input.intermittent {
+            return Err(format!("measurement row {row} must have a fault flag output unless it is intermittent"));
         }
     }
     for j in 0..descriptor.control_dim() {
         if !vars.iter().any(|v| v.role == Role::Control(j)) {
             return Err(format!("control {j} has no input"));
         }
+    }
+    if vars.iter().any(|v| matches!(v.role, Role::Derived(k) if k >= MAX_DERIVED)) {
+        return Err(format!("at most {MAX_DERIVED} derived outputs"));
     }
     if !filter_value(descriptor.default_filter).is_finite() {
         return Err(format!("default filter {} is not a value of FilterKind", descriptor.default_filter));

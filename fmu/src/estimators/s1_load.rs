@@ -8,10 +8,12 @@
 //! `load_noise_intensity` (N²/s³), discretised exactly over the sample time.
 
 use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear};
-use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
+use estimator::{
+    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, SupervisorSettings, UnscentedParams,
+};
 use nalgebra::{DMatrix, DVector};
 
-use super::{DefaultExperiment, Descriptor};
+use super::{no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
 use crate::variables::{Parameters, Role, Variable};
 
 const STATE: [(&str, &str, &str); 6] = [
@@ -119,6 +121,9 @@ pub(super) fn descriptor() -> Descriptor {
         build_filter: build,
         build_noise: noise,
         default_filter: FilterKind::SrCkf,
+        supervision: SupervisorSettings::default(),
+        derive: no_derived_outputs,
+        build_steps: no_quantized_steps,
         guid: String::new(),
     }
     .finish()

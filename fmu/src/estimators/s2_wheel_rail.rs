@@ -9,9 +9,11 @@
 //! the forces' noise as an intensity); the sensors' noise (tunable).
 
 use estimator::models::{PiecewiseLinear, VerticalVehicle, WheelRailVertical};
-use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
+use estimator::{
+    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, SupervisorSettings, UnscentedParams,
+};
 
-use super::{DefaultExperiment, Descriptor};
+use super::{no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
 use crate::variables::{Parameters, Role, Variable};
 
 /// The measured accelerations: name, description, fault flag and its description (literals:
@@ -177,6 +179,9 @@ pub(super) fn descriptor() -> Descriptor {
         build_filter: build,
         build_noise: noise,
         default_filter: FilterKind::SrCkf,
+        supervision: SupervisorSettings::default(),
+        derive: no_derived_outputs,
+        build_steps: no_quantized_steps,
         guid: String::new(),
     }
     .finish()

@@ -12,9 +12,11 @@
 //! so the numbers are copied here.
 
 use estimator::models::{Airframe, Missile6Dof, MomentModel};
-use estimator::{build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
+use estimator::{
+    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, SupervisorSettings, UnscentedParams,
+};
 
-use super::{DefaultExperiment, Descriptor};
+use super::{no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
 use crate::variables::{Parameters, Role, Variable};
 
 /// The measurements, in the model's order: name, unit, description, fault flag and its
@@ -216,6 +218,9 @@ pub(super) fn descriptor() -> Descriptor {
         build_filter: build,
         build_noise: noise,
         default_filter: FilterKind::SvdCkf,
+        supervision: SupervisorSettings::default(),
+        derive: no_derived_outputs,
+        build_steps: no_quantized_steps,
         guid: String::new(),
     }
     .finish()

@@ -331,7 +331,7 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
             stale: rows.map(|r| matches!(r, RowOutcome::Missing | RowOutcome::Stuck)),
             rejected: rows.map(|r| r == RowOutcome::Rejected),
             faulty,
-            weights: model.speed_weights(&p, faulty.map(|f| !f)),
+            weights: PrwTrain::speed_weights(&p, [tuning.channel_noise_std.powi(2); 4], faulty.map(|f| !f)),
             reacquired: reacquired.map(|c| Channel::ALL[c]),
             slip,
             healthy: supervisor.healthy(),
