@@ -24,6 +24,8 @@ pub struct Setup<'a> {
     pub filter: FilterKind,
     /// Real parameters, by name.
     pub parameters: &'a [(&'static str, f64)],
+    /// The Integer parameters it is set, the filter aside.
+    pub integers: &'a [(&'static str, i32)],
     /// The inputs, in the order of the measurement vectors, with their descriptions.
     pub inputs: &'a [(&'static str, &'static str)],
     /// The Real outputs logged on `/estimate` and `/prediction`.
@@ -57,7 +59,7 @@ pub fn run(
     log: &Path,
     mut progress: impl FnMut(usize),
 ) -> anyhow::Result<Counts> {
-    let Setup { fmu, filter, parameters, inputs, outputs, .. } = *setup;
+    let Setup { fmu, filter, parameters, integers, inputs, outputs, .. } = *setup;
     let (first, last) = (times[0], times[times.len() - 1]);
     let study = setup.metadata.get("study").cloned().unwrap_or_default();
     let case = setup.metadata.get("case").cloned().unwrap_or_default();
@@ -66,7 +68,7 @@ pub fn run(
         first,
         last,
         parameters,
-        &[("filter", filter_enumeration(filter)), ("rk4_substeps", 1)],
+        &[&[("filter", filter_enumeration(filter))], integers].concat(),
     )?;
     let input_vrs: Vec<u32> = inputs.iter().map(|(n, _)| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
     let output_vrs: Vec<u32> = outputs.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;

@@ -3,7 +3,7 @@
 //! importer exactly as an external simulator would, writes the MCAP log,
 //! analyses it with the analyzer (reading the log back, as a user would), and
 //! prints our figures beside the papers'. Each study's table is its own
-//! module's (`s1::reproduce`, `s2::reproduce`); studies not built yet are
+//! module's (`s1::reproduce`, `s2::reproduce`, …); studies not built yet are
 //! listed as such, never skipped silently.
 
 use std::path::{Path, PathBuf};
@@ -15,7 +15,7 @@ use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
 use anyhow::{bail, Context};
 
-use crate::{s1, s2, s5};
+use crate::{s1, s2, s4, s5};
 
 /// Command-line arguments of `scenarios reproduce`.
 #[derive(Debug, clap::Args)]
@@ -55,7 +55,7 @@ const STUDIES: [(&str, &str, bool); 5] = [
     ("s1", "dynamic load on a 2-DOF nonlinear chain (SRCKF)", true),
     ("s2", "wheel-rail vertical forces, 10-DOF vehicle (SRCKF)", true),
     ("s3", "left/right wheel-rail forces, 17-DOF vehicle (SRCKF)", false),
-    ("s4", "maglev speed from four PRW channels (fusion + UKF)", false),
+    ("s4", "maglev speed and position from four PRW channels (fusion + UKF)", true),
     ("s5", "missile aerodynamic coefficients (SVD-CKF vs CKF)", true),
 ];
 
@@ -101,6 +101,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 settings.validate().map_err(anyhow::Error::msg)?;
                 s2::reproduce::report(&settings, &args.fmu_dir, &args.out)?
             }
+            "s4" => s4::reproduce::report(args.seed, args.quick, &args.fmu_dir, &args.out)?,
             "s5" => {
                 let settings = s5::study::Settings { seed: args.seed, ..s5::study::Settings::default() };
                 s5::reproduce::report(&settings, &args.fmu_dir, &args.out, &args.python)?

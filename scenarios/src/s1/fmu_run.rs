@@ -104,6 +104,7 @@ pub fn run(
         fmu,
         filter: kind,
         parameters: &params,
+        integers: &[("rk4_substeps", 1)],
         inputs: &INPUTS,
         outputs: &OUTPUTS,
         truth: &truth_specs,

@@ -102,7 +102,16 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         ("rate_hz".to_string(), settings.rate.to_string()),
         ("noise_fraction".to_string(), settings.noise_fraction.to_string()),
     ]);
-    let setup = Setup { fmu, filter: kind, parameters, inputs: &INPUTS, outputs: &OUTPUTS, truth: &forces, metadata };
+    let setup = Setup {
+        fmu,
+        filter: kind,
+        parameters,
+        integers: &[("rk4_substeps", 1)],
+        inputs: &INPUTS,
+        outputs: &OUTPUTS,
+        truth: &forces,
+        metadata,
+    };
     cosimulation::run(
         &setup,
         &truth.time,

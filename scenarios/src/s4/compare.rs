@@ -65,8 +65,8 @@ struct Scores {
     in_band: f64,
 }
 
-/// One seed's comparison.
-struct Comparison {
+/// One recording's comparison.
+pub(crate) struct Comparison {
     raw: Scores,
     fused: Scores,
     filtered: Scores,
@@ -106,20 +106,32 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 fn compare(profile: &Profile, tuning: &Tuning, kind: FilterKind, seed: u64) -> Result<Comparison, String> {
     let recording = simulate(profile, &Faults::default(), seed);
-    let speed_truth = true_speed_for_samples(&recording);
-    let position_truth = true_position_for_samples(&recording);
+    let ours = ours::run(&recording, &Settings::new(kind, *tuning))?;
+    // Ours at the telegrams the speed samples are known at, 1 … n − 1.
+    let later = &ours.estimates[1..];
+    let speed: Vec<f64> = later.iter().map(|e| e.speed).collect();
+    let position: Vec<f64> = later.iter().map(|e| e.position).collect();
+    compare_with(&recording, &ours, &speed, &position)
+}
+
+/// The raw average and the paper's pipeline on `recording`, and ours: the run `ours`
+/// (its flags, offsets and slips), whose speed and position at telegrams 1 … n − 1 are
+/// `our_speed` and `our_position` (the run's own, or an FMU's that ran the same filter).
+pub(crate) fn compare_with(
+    recording: &Recording,
+    ours: &ours::Run,
+    our_speed: &[f64],
+    our_position: &[f64],
+) -> Result<Comparison, String> {
+    let speed_truth = true_speed_for_samples(recording);
+    let position_truth = true_position_for_samples(recording);
     let scores = |speed: &[f64], position: &[f64]| Scores {
         speed: score_speed(speed, &speed_truth),
         position_max: score_position(position, &position_truth).max_abs,
         in_band: fraction_in_band(speed, &speed_truth),
     };
-    let paper = run_paper(&recording, &PaperSettings::default()).map_err(|e| format!("paper's pipeline: {e}"))?;
-    let raw_position: Vec<f64> = raw_average_position(&recording).into_iter().skip(1).collect();
-    let ours = ours::run(&recording, &Settings::new(kind, *tuning))?;
-    // Ours at the telegrams the speed samples are known at, 1 … n − 1.
-    let later = &ours.estimates[1..];
-    let our_speed: Vec<f64> = later.iter().map(|e| e.speed).collect();
-    let our_position: Vec<f64> = later.iter().map(|e| e.position).collect();
+    let paper = run_paper(recording, &PaperSettings::default()).map_err(|e| format!("paper's pipeline: {e}"))?;
+    let raw_position: Vec<f64> = raw_average_position(recording).into_iter().skip(1).collect();
     let our_flags: Vec<[bool; 4]> = ours
         .estimates
         .iter()
@@ -127,12 +139,12 @@ fn compare(profile: &Profile, tuning: &Tuning, kind: FilterKind, seed: u64) -> R
         .collect();
     let settings = DetectionSettings::default();
     Ok(Comparison {
-        raw: scores(&raw_average(&recording), &raw_position),
+        raw: scores(&raw_average(recording), &raw_position),
         fused: scores(&paper.fused, &paper.position),
         filtered: scores(&paper.filtered, &paper.position),
-        ours: scores(&our_speed, &our_position),
+        ours: scores(our_speed, our_position),
         paper_detection: score_detection(&recording.faults, &paper.flags_by_telegram(), [false; 4], settings),
-        our_detection: score_detection(&recording.faults, &our_flags, offsets_found(&recording, &ours), settings),
+        our_detection: score_detection(&recording.faults, &our_flags, offsets_found(recording, ours), settings),
     })
 }
 
@@ -158,7 +170,8 @@ fn offsets_found(recording: &Recording, run: &ours::Run) -> [bool; 4] {
     })
 }
 
-fn print_comparison(out: &mut String, seed: u64, c: &Comparison) {
+/// Prints one comparison's tables under the heading `seed {seed}: …`.
+pub(crate) fn print_comparison(out: &mut String, seed: u64, c: &Comparison) {
     let _ = writeln!(out, "seed {seed}: speed against the true speed at the telegram each estimate is known (m/s)");
     let _ = writeln!(
         out,

@@ -11,13 +11,16 @@
 //!   speeds ([`recording`]).
 //! - The paper's pipeline ([`paper`]), ours on the positions ([`ours`]), their scores
 //!   ([`metrics`]) and the command that compares them ([`compare`]).
+//! - Ours through the packaged FMU ([`fmu_run`]) in `scenarios reproduce` ([`reproduce`]).
 
 pub mod channels;
 pub mod compare;
 pub mod faults;
+pub mod fmu_run;
 pub mod metrics;
 pub mod ours;
 pub mod paper;
 pub mod parameters;
 pub mod profile;
 pub mod recording;
+pub mod reproduce;

@@ -90,6 +90,7 @@ pub fn run(
         fmu,
         filter: kind,
         parameters: &parameters,
+        integers: &[("rk4_substeps", 1)],
         inputs: &INPUTS,
         outputs: &OUTPUTS,
         truth: &coefficients,

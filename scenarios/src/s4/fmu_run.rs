@@ -1,0 +1,118 @@
+//! One S4 run through the packaged estimator FMU (`kalfmu_s4_maglev`), driven as the
+//! train's computer drives it ([`crate::cosimulation`]): at each telegram the four
+//! channels' positions (NaN where a telegram did not arrive; a resent one as it came) and
+//! no marker. The user sets the channels' noise, the motion's jerk and the prior position
+//! from the first telegrams; the rest is the FMU's defaults, the study's set-up. The log
+//! has the true position and speed.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use analyzer::log::SignalSpec;
+use estimator::FilterKind;
+
+use super::channels::Channel;
+use super::ours::Tuning;
+use super::recording::Recording;
+use crate::cosimulation::{self, Counts, Setup};
+use crate::fmu_driver::ImportedFmu;
+
+/// The FMU's identifier.
+pub const IDENTIFIER: &str = "kalfmu_s4_maglev";
+
+/// The FMU's inputs: the four channels in [`Channel::ALL`]'s order, then the marker.
+const INPUTS: [(&str, &str); 5] = [
+    ("P_head_left", "head-left channel's position telegram (NaN: not received)"),
+    ("P_head_right", "head-right channel's position telegram (NaN: not received)"),
+    ("P_tail_left", "tail-left channel's position telegram (NaN: not received)"),
+    ("P_tail_right", "tail-right channel's position telegram (NaN: not received)"),
+    ("marker_position", "absolute position at a marker (none in these runs)"),
+];
+
+/// The FMU's outputs that are logged, position and speed first.
+pub const OUTPUTS: [&str; 17] = [
+    "position",
+    "speed",
+    "position_std",
+    "speed_std",
+    "acceleration",
+    "acceleration_std",
+    "fused_speed",
+    "fused_speed_std",
+    "offset_head_left",
+    "offset_head_right",
+    "offset_tail_left",
+    "offset_tail_right",
+    "weight_head_left",
+    "weight_head_right",
+    "weight_tail_left",
+    "weight_tail_right",
+    "nis",
+];
+
+/// What the user sets: the channels' noise, the jerk, the prior position: the first
+/// telegrams' mean less their levers, as [`super::ours::run`] starts.
+pub fn parameters(recording: &Recording, tuning: &Tuning) -> Vec<(&'static str, f64)> {
+    let first = Channel::ALL.iter().map(|&c| recording.position[c as usize][0] - c.lever()).sum::<f64>() / 4.0;
+    let mut p = vec![
+        ("sample_time", recording.telegram_interval),
+        ("jerk_intensity", tuning.jerk_intensity),
+        ("offset_walk", tuning.offset_walk),
+        ("prior_position", first),
+        ("prior_position_std", tuning.position_prior_std),
+        ("prior_speed_std", tuning.speed_prior_std),
+        ("prior_acceleration_std", tuning.acceleration_prior_std),
+        ("prior_offset_std", tuning.offset_prior_std),
+        ("r_marker_position_std", tuning.marker_noise_std),
+        // The library's cubature rule for the UKF, as the in-process runs have it.
+        ("ukf_alpha", 1.0),
+        ("ukf_beta", 2.0),
+        ("ukf_kappa", 0.0),
+    ];
+    for name in ["r_P_head_left_std", "r_P_head_right_std", "r_P_tail_left_std", "r_P_tail_right_std"] {
+        p.push((name, tuning.channel_noise_std));
+    }
+    p
+}
+
+/// Runs `kind` through the FMU over `recording` and writes the log to `log`.
+pub fn run(
+    fmu: &ImportedFmu,
+    kind: FilterKind,
+    recording: &Recording,
+    tuning: &Tuning,
+    case: &str,
+    log: &Path,
+) -> anyhow::Result<Counts> {
+    let parameters = parameters(recording, tuning);
+    let truth = [
+        SignalSpec::new("position", "m", "true position of the reference point"),
+        SignalSpec::new("speed", "m/s", "true speed of the reference point"),
+    ];
+    let metadata = BTreeMap::from([("study".to_string(), "S4".to_string()), ("case".to_string(), case.to_string())]);
+    let setup = Setup {
+        fmu,
+        filter: kind,
+        parameters: &parameters,
+        integers: &[],
+        inputs: &INPUTS,
+        outputs: &OUTPUTS,
+        truth: &truth,
+        metadata,
+    };
+    let times: Vec<f64> = (0..recording.n_telegrams()).map(|k| recording.time(k)).collect();
+    cosimulation::run(
+        &setup,
+        &times,
+        recording.telegram_interval,
+        |k| {
+            let mut z: Vec<f64> =
+                (0..4).map(|c| if recording.received[c][k] { recording.position[c][k] } else { f64::NAN }).collect();
+            z.push(f64::NAN);
+            z
+        },
+        |k| vec![recording.truth[k].position, recording.truth[k].speed],
+        log,
+        |_| {},
+    )
+}
