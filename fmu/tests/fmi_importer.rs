@@ -6,7 +6,11 @@
 //! estimation model itself with known deflections, its measurements noisy, the
 //! controls of t_k set with the measurements of t_k; the reference predicts
 //! with the controls of the previous sample and updates holding those of the
-//! current (`fmu/src/timing.rs`, rule 5), bit for bit. Each other check runs on S1 (`kalfmu_s1_load`, several parameters off their
+//! current (`fmu/src/timing.rs`, rule 5), bit for bit. S4 (`kalfmu_s4_maglev`)
+//! runs the generic checks below on telegrams of a train at 5 m/s with a spike, a
+//! slot slip, a resend, a dropout and markers, against `PrwTrain` behind a supervisor
+//! with resends stuck from the first repeat and slips as quantised steps. Each other
+//! check runs on S1 (`kalfmu_s1_load`, several parameters off their
 //! defaults, so that every one is seen to reach the filter) and on S2
 //! (`kalfmu_s2_wheel_rail`, its default parameters, whose vehicle is checked
 //! to be the library's catalogue car, `VerticalVehicle::zhai_passenger`);
@@ -43,11 +47,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use estimator::models::{
-    Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, VerticalVehicle, WheelRailVertical,
+    Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, PrwTrain, VerticalVehicle,
+    WheelRailVertical,
 };
 use estimator::{
-    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, Supervisor, SupervisorSettings,
-    UnscentedParams,
+    build_filter, Discretized, FilterKind, Gaussian, Noise, QuantizedSteps, StateEstimator, Supervisor,
+    SupervisorSettings, UnscentedParams,
 };
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
@@ -117,11 +122,16 @@ struct Setup {
     descriptor: Descriptor,
     /// Real parameters set in initialisation mode; the others keep their defaults.
     reals: Vec<(&'static str, f64)>,
-    substeps: i32,
+    /// `rk4_substeps`, for the models that integrate with RK4.
+    substeps: Option<i32>,
     /// The `filter` set in initialisation mode (2: SRCKF; 3: SVD-CKF).
     filter: i32,
     /// The SRCKF the FMU should run, with the process noise of a prediction over `dt`.
     reference: fn(&Setup, f64) -> Box<dyn StateEstimator>,
+    /// The supervisor the FMU should run, from the parameters.
+    supervisor: fn(&Setup) -> Supervisor,
+    /// `n` samples of inputs `dt` apart from a seed: the plant's outputs a master sets.
+    measurements: fn(&Setup, usize, f64, u64) -> Vec<Vec<f64>>,
 }
 
 impl Setup {
@@ -161,19 +171,57 @@ impl Setup {
             ("r_z2_ddot_std", 0.02),
             ("sample_time", 0.005),
         ];
-        Self { descriptor: descriptor("kalfmu_s1_load"), reals, substeps: 2, filter: 2, reference: s1_reference }
+        Self {
+            descriptor: descriptor("kalfmu_s1_load"),
+            reals,
+            substeps: Some(2),
+            filter: 2,
+            reference: s1_reference,
+            supervisor: default_supervisor,
+            measurements: accelerations,
+        }
     }
 
     /// S2 with its defaults.
     fn s2() -> Self {
         let descriptor = descriptor("kalfmu_s2_wheel_rail");
-        Self { descriptor, reals: Vec::new(), substeps: 1, filter: 2, reference: s2_reference }
+        Self {
+            descriptor,
+            reals: Vec::new(),
+            substeps: Some(1),
+            filter: 2,
+            reference: s2_reference,
+            supervisor: default_supervisor,
+            measurements: accelerations,
+        }
     }
 
     /// S5 with its defaults (the SVD-CKF, the study's tuning).
     fn s5() -> Self {
         let descriptor = descriptor("kalfmu_s5_missile");
-        Self { descriptor, reals: Vec::new(), substeps: 1, filter: 3, reference: s5_reference }
+        Self {
+            descriptor,
+            reals: Vec::new(),
+            substeps: Some(1),
+            filter: 3,
+            reference: s5_reference,
+            supervisor: default_supervisor,
+            measurements: accelerations,
+        }
+    }
+
+    /// S4 with its defaults but a higher jerk intensity (every one is seen to reach the filter).
+    fn s4() -> Self {
+        let descriptor = descriptor("kalfmu_s4_maglev");
+        Self {
+            descriptor,
+            reals: vec![("jerk_intensity", 3.0), ("prior_position", 0.25)],
+            substeps: None,
+            filter: 2,
+            reference: s4_reference,
+            supervisor: s4_supervisor,
+            measurements: s4_telegrams,
+        }
     }
 
     fn model(&self) -> &'static str {
@@ -250,7 +298,7 @@ fn s1_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
         k2: p("k2"),
         c2: p("c2"),
     };
-    let model = Discretized::rk4(Oscillator2DofLoad::new(chain), s.substeps as usize);
+    let model = Discretized::rk4(Oscillator2DofLoad::new(chain), s.substeps.unwrap_or(1) as usize);
     let q = p("load_noise_intensity");
     let fraction = dt / p("sample_time");
     let mut qm = DMatrix::zeros(6, 6);
@@ -298,7 +346,7 @@ fn s2_vehicle(s: &Setup) -> VerticalVehicle {
 fn s2_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
     let p = |n: &str| s.get(n);
     let vehicle = s2_vehicle(s);
-    let model = Discretized::rk4(WheelRailVertical { vehicle }, s.substeps as usize);
+    let model = Discretized::rk4(WheelRailVertical { vehicle }, s.substeps.unwrap_or(1) as usize);
     let fraction = dt / p("sample_time");
     let (body, wheelset) = (p("q_body_std").powi(2) * fraction, p("q_wheelset_std").powi(2) * fraction);
     // Positions, then velocities: car body and bogies (6) before the wheelsets (4).
@@ -340,7 +388,7 @@ fn s5_airframe(s: &Setup) -> Airframe {
 /// diagonal prior of the `prior_*` parameters.
 fn s5_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
     let p = |n: &str| s.get(n);
-    let model = Discretized::rk4(Missile6Dof { airframe: s5_airframe(s) }, s.substeps as usize);
+    let model = Discretized::rk4(Missile6Dof { airframe: s5_airframe(s) }, s.substeps.unwrap_or(1) as usize);
     let fraction = dt / p("sample_time");
     let var = |n: &str| p(n) * p(n) * fraction;
     let (v, angle, h, rate) = (var("q_velocity_std"), var("q_angle_std"), var("q_altitude_std"), var("q_rate_std"));
@@ -415,7 +463,88 @@ fn s5_flight(s: &Setup, n: usize, dt: f64, seed: u64) -> (Vec<Vec<f64>>, Vec<Vec
 /// Measured accelerations of `m` inputs about the static equilibrium (the
 /// models' coordinates): per input a seeded sum of four sines plus white noise
 /// of 0.01·(i + 1) m/s²; every 97th sample of the second input is missing (NaN).
-fn accelerations(m: usize, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
+/// The supervisor with its defaults.
+fn default_supervisor(s: &Setup) -> Supervisor {
+    Supervisor::new(SupervisorSettings::default(), s.inputs().len()).unwrap()
+}
+
+/// S4's reference: `PrwTrain` with the marker row, `Q` exact over `dt`, `R` from each
+/// channel's noise, a diagonal prior.
+fn s4_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
+    let p = |n: &str| s.get(n);
+    let levers = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"].map(p);
+    let model = PrwTrain {
+        marker: true,
+        jerk_intensity: p("jerk_intensity"),
+        offset_walk: p("offset_walk"),
+        ..PrwTrain::new(levers)
+    };
+    let r =
+        ["r_P_head_left_std", "r_P_head_right_std", "r_P_tail_left_std", "r_P_tail_right_std", "r_marker_position_std"]
+            .map(|n| p(n).powi(2));
+    let noise = Noise::new(model.process_noise(dt), DMatrix::from_diagonal(&DVector::from_column_slice(&r))).unwrap();
+    let offset = p("prior_offset_std").powi(2);
+    let prior = Gaussian::diagonal(
+        &[p("prior_position"), p("prior_speed"), p("prior_acceleration"), 0.0, 0.0, 0.0, 0.0],
+        &[
+            p("prior_position_std").powi(2),
+            p("prior_speed_std").powi(2),
+            p("prior_acceleration_std").powi(2),
+            offset,
+            offset,
+            offset,
+            offset,
+        ],
+    );
+    build_filter(FilterKind::SrCkf, model, noise, &prior, UKF).unwrap()
+}
+
+/// S4's supervisor: resent telegrams stuck from the first repeat, slot slips as
+/// quantised steps of the offsets.
+fn s4_supervisor(s: &Setup) -> Supervisor {
+    let settings = SupervisorSettings { stuck_after: 2, ..SupervisorSettings::default() };
+    let steps = QuantizedSteps {
+        quantum: s.get("slot_pitch"),
+        after: 3,
+        tolerance: s.get("slip_tolerance"),
+        bias_states: (0..5).map(|c| (c < 4).then_some(PrwTrain::OFFSETS + c)).collect(),
+    };
+    Supervisor::new(settings, 5).unwrap().with_steps(steps).unwrap()
+}
+
+/// S4's telegrams: a train at 5 m/s from 0.3 m, the four channels at their levers with
+/// offsets and 1.5 mm of noise; a spike on the first channel at sample 300, a slot slip
+/// of the third from 500 on, the second resent at 700–703, the fourth not received at
+/// 800–805; a marker reading every 50th sample, NaN between.
+fn s4_telegrams(s: &Setup, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let levers = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"].map(|l| s.get(l));
+    let offsets = [0.03, -0.02, 0.01, -0.04];
+    let mut rows: Vec<Vec<f64>> = Vec::with_capacity(n);
+    for k in 0..n {
+        let position = 0.3 + 5.0 * dt * k as f64;
+        let mut z: Vec<f64> =
+            (0..4).map(|c| position + levers[c] + offsets[c] + 1.5e-3 * (rng.random::<f64>() - 0.5) * 3.46).collect();
+        if k == 300 {
+            z[0] += 0.2;
+        }
+        if k >= 500 {
+            z[2] += 0.086;
+        }
+        if (700..704).contains(&k) {
+            z[1] = rows[k - 1][1];
+        }
+        if (800..806).contains(&k) {
+            z[3] = f64::NAN;
+        }
+        z.push(if k % 50 == 0 { position + 0.01 * (rng.random::<f64>() - 0.5) } else { f64::NAN });
+        rows.push(z);
+    }
+    rows
+}
+
+fn accelerations(s: &Setup, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
+    let m = s.inputs().len();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let tones: Vec<Vec<(f64, f64, f64)>> = (0..m)
         .map(|_| {
@@ -481,9 +610,12 @@ impl Fmu {
         Common::set_integer(&mut self.instance, &[self.vr["input_timing"]], &[timing]).expect("input_timing");
         let (vrs, values): (Vec<u32>, Vec<f64>) = setup.reals.iter().map(|(n, v)| (self.vr[*n], *v)).unzip();
         Common::set_real(&mut self.instance, &vrs, &values).expect("fmi2SetReal of the parameters");
-        let (filter, substeps) = (self.vr["filter"], self.vr["rk4_substeps"]);
-        Common::set_integer(&mut self.instance, &[filter, substeps], &[setup.filter, setup.substeps])
-            .expect("fmi2SetInteger of filter and rk4_substeps");
+        Common::set_integer(&mut self.instance, &[self.vr["filter"]], &[setup.filter])
+            .expect("fmi2SetInteger of filter");
+        if let Some(substeps) = setup.substeps {
+            Common::set_integer(&mut self.instance, &[self.vr["rk4_substeps"]], &[substeps])
+                .expect("fmi2SetInteger of rk4_substeps");
+        }
         Common::exit_initialization_mode(&mut self.instance).expect("fmi2ExitInitializationMode");
     }
 
@@ -522,8 +654,7 @@ impl Fmu {
 fn outputs_equal_the_library_run_in_process(setup: &Setup) {
     let model = setup.model();
     let dt = setup.sample_time();
-    let m = setup.inputs().len();
-    let z = accelerations(m, SAMPLES + 1, dt, 20240611);
+    let z = (setup.measurements)(setup, SAMPLES + 1, dt, 20240611);
     let import: Fmi2Import = fmi::import::from_path(fmu_path(model)).expect("importing the .fmu");
     let md = import.model_description();
     assert_eq!(md.fmi_version, "2.0");
@@ -534,18 +665,20 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
     fmu.initialise(setup, SAMPLES as f64 * dt);
 
     let mut reference = setup.reference_filter();
-    let mut supervisor = Supervisor::new(SupervisorSettings::default(), m).unwrap();
+    let mut supervisor = (setup.supervisor)(setup);
+    // The NIS of the latest update (a quantised step restores the belief, which keeps no innovation).
+    let mut nis = reference.innovation().nis();
     for (k, zk) in z.iter().enumerate() {
         let t = k as f64 * dt;
         if k > 0 {
             // The read right after the step to t: the prediction from the measurements before t.
             reference.predict(&[], dt).unwrap();
             let after_step = fmu.read();
-            let expected = setup.expected_outputs(reference.as_ref(), reference.innovation().nis());
+            let expected = setup.expected_outputs(reference.as_ref(), nis);
             assert_eq!(bits(&[after_step]), bits(&[expected]), "{model}: after the step to sample {k}");
         }
         fmu.set_inputs(zk);
-        let nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
+        nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
         supervisor.commit(|_| {});
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
@@ -556,17 +689,23 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
 
     // The counts and flags are the supervisor's. (These sums of sines are no
     // trajectory of the model: the filter may rightly find them inconsistent.)
-    let missing = z.iter().filter(|zk| zk.iter().any(|v| v.is_nan())).count();
+    let missing = z.iter().flatten().filter(|v| v.is_nan()).count();
     let names = ["skipped_measurements", "rejected_measurements"];
     let mut counts = [0; 2];
     Common::get_integer(&mut fmu.instance, &names.map(|n| fmu.vr[n]), &mut counts).expect("fmi2GetInteger");
     assert_eq!(counts, [missing as i32, supervisor.rejected() as i32], "{model}: {names:?}");
-    let flags: Vec<&str> =
-        ["filter_healthy"].into_iter().chain(setup.names(|r| matches!(r, Role::ChannelFault(_)))).collect();
+    // A fault flag per input that has one (S4's intermittent marker has none).
+    let flagged: Vec<(&str, usize)> = setup
+        .descriptor
+        .variables
+        .iter()
+        .filter_map(|v| if let Role::ChannelFault(row) = v.role { Some((v.name, row)) } else { None })
+        .collect();
+    let flags: Vec<&str> = ["filter_healthy"].into_iter().chain(flagged.iter().map(|(n, _)| *n)).collect();
     let vrs: Vec<u32> = flags.iter().map(|n| fmu.vr[*n]).collect();
     let mut got = vec![0; flags.len()];
     Common::get_boolean(&mut fmu.instance, &vrs, &mut got).expect("fmi2GetBoolean");
-    let channels = supervisor.channels().iter().map(|c| c.faulty);
+    let channels = flagged.iter().map(|(_, row)| supervisor.channels()[*row].faulty);
     let expected: Vec<i32> = [supervisor.healthy()].into_iter().chain(channels).map(i32::from).collect();
     assert_eq!(got, expected, "{model}: {flags:?}");
     let last = fmu.instance.last_successful_time().expect("fmi2GetRealStatus");
@@ -579,6 +718,13 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
 #[test]
 fn s1_outputs_equal_the_library_run_in_process() {
     outputs_equal_the_library_run_in_process(&Setup::s1());
+}
+
+/// S4 on telegrams with a spike, a slot slip, a resend, a dropout and markers: the
+/// supervisor's stuck rows and quantised steps as the FMU runs them.
+#[test]
+fn s4_outputs_equal_the_library_run_in_process() {
+    outputs_equal_the_library_run_in_process(&Setup::s4());
 }
 
 #[test]
@@ -634,7 +780,7 @@ fn s5_outputs_equal_the_library_run_in_process() {
     let names = ["skipped_measurements", "rejected_measurements"];
     let mut counts = [0; 2];
     Common::get_integer(&mut fmu.instance, &names.map(|n| fmu.vr[n]), &mut counts).expect("fmi2GetInteger");
-    let missing = z.iter().filter(|zk| zk.iter().any(|v| v.is_nan())).count();
+    let missing = z.iter().flatten().filter(|v| v.is_nan()).count();
     assert_eq!(counts, [missing as i32, supervisor.rejected() as i32], "{model}: {names:?}");
     // The coefficients moved from the prior towards Table 1's (C_y^α: 1.2 × 9.2596 at the start).
     let mut cy_a = [0.0];
@@ -736,7 +882,7 @@ fn fmu_state_get_set_serialize_through_the_importer(setup: &Setup, timing: i32) 
     let dt = setup.sample_time();
     let (first, second) = (400, 300);
     let (z, u) = if setup.controls().is_empty() {
-        (accelerations(setup.inputs().len(), first + second, dt, 77), vec![Vec::new(); first + second])
+        ((setup.measurements)(setup, first + second, dt, 77), vec![Vec::new(); first + second])
     } else {
         s5_flight(setup, first + second, dt, 77)
     };
@@ -789,6 +935,13 @@ fn s1_fmu_state_get_set_serialize_through_the_importer() {
 #[test]
 fn s2_fmu_state_get_set_serialize_through_the_importer() {
     fmu_state_get_set_serialize_through_the_importer(&Setup::s2(), 1);
+}
+
+#[test]
+fn s4_fmu_state_get_set_serialize_through_the_importer() {
+    for timing in [1, 2] {
+        fmu_state_get_set_serialize_through_the_importer(&Setup::s4(), timing);
+    }
 }
 
 #[test]
