@@ -4,11 +4,12 @@
 //! `package-fmus` writes), so it walks through every kind of call an importer
 //! makes. It knows no FMU: the inputs, outputs and parameters are found by
 //! causality in the model description, the step is its default experiment's;
-//! an input with a fault flag (`<input>_fault`) is a measurement, one without
-//! is a control (a known input of the model, never missing).
+//! an input with a sensor noise parameter (`r_<input>_std`) is a measurement, one
+//! without is a control (a known input of the model, never missing).
 //!
 //! 1. instance `a`: set-up with a stop time, parameters in initialisation
-//!    mode (every tunable at 1.2 times its start value, `rk4_substeps` 2),
+//!    mode (every tunable at 1.2 times its start value, `rk4_substeps` 2 where
+//!    the FMU integrates with RK4),
 //!    `STEPS` communication steps of one sample with synthetic accelerations
 //!    (some missing, logged as warnings) and controls of a few tenths of a
 //!    degree, every Real output read every step;
@@ -82,7 +83,8 @@ struct Run {
     outputs: Vec<(String, u32)>,
     /// Every Real tunable parameter and its start value.
     tunables: Vec<(u32, f64)>,
-    substeps: u32,
+    /// `rk4_substeps`, where the FMU has it.
+    substeps: Option<u32>,
     dt: f64,
 }
 
@@ -91,7 +93,9 @@ impl Run {
         FmiInstance::enter_initialization_mode(inst, None, 0.0, Some(stop)).map_err(|e| format!("initialise: {e}"))?;
         let (vrs, values): (Vec<u32>, Vec<f64>) = self.tunables.iter().map(|&(vr, start)| (vr, 1.2 * start)).unzip();
         Common::set_real(inst, &vrs, &values).map_err(|e| format!("parameters: {e}"))?;
-        Common::set_integer(inst, &[self.substeps], &[2]).map_err(|e| format!("rk4_substeps: {e}"))?;
+        if let Some(substeps) = self.substeps {
+            Common::set_integer(inst, &[substeps], &[2]).map_err(|e| format!("rk4_substeps: {e}"))?;
+        }
         Common::exit_initialization_mode(inst).map_err(|e| format!("exit initialisation: {e}"))?;
         Ok(())
     }
@@ -134,9 +138,9 @@ fn simulate(path: &str, steps: usize) -> Result<String, String> {
     let md = import.model_description();
     let variables = &md.model_variables.variables;
     let real = |v: &&ScalarVariable| matches!(v.elem, ScalarVariableElement::Real(_));
-    let has_fault_flag = |v: &&ScalarVariable| variables.iter().any(|f| f.name == format!("{}_fault", v.name));
+    let measured = |v: &&ScalarVariable| variables.iter().any(|f| f.name == format!("r_{}_std", v.name));
     let (inputs, controls): (Vec<&ScalarVariable>, Vec<&ScalarVariable>) =
-        variables.iter().filter(|v| v.causality == Causality::Input).filter(real).partition(has_fault_flag);
+        variables.iter().filter(|v| v.causality == Causality::Input).filter(real).partition(measured);
     // Measurements about the prior (`prior_<input>`) at a few times the sensor's noise
     // (`r_<input>_std`) where the FMU has them (S5: a missile at 10 km and 1 km/s, whose
     // filter diverges on sines about 0), else sines about 0 (S1, S2: oscillators).
@@ -170,12 +174,12 @@ fn simulate(path: &str, steps: usize) -> Result<String, String> {
             _ => None,
         })
         .collect();
-    let substeps = variables.iter().find(|v| v.name == "rk4_substeps").ok_or("the FMU has no rk4_substeps")?;
+    let substeps = variables.iter().find(|v| v.name == "rk4_substeps").map(|v| v.value_reference);
     if inputs.is_empty() || outputs.is_empty() || tunables.is_empty() {
         return Err(format!("{path}: no Real inputs, outputs or tunable parameters in the model description"));
     }
     let dt = md.default_experiment.as_ref().and_then(|d| d.step_size).ok_or("no default step size")?;
-    let run = Run { inputs, about, controls, outputs, tunables, substeps: substeps.value_reference, dt };
+    let run = Run { inputs, about, controls, outputs, tunables, substeps, dt };
     let half = steps / 2;
 
     let mut a = import.instantiate_cs("a", false, true).map_err(|e| format!("instantiate a: {e}"))?;
