@@ -3,8 +3,9 @@
 //! one JSON document, and one Rerun recording (`rrd.rs`).
 //!
 //! Runs are comparable when they share their truth: the same compared truth signals, at
-//! the same times, with the same values bit for bit (the same case and seed). Runs that do
-//! not are refused, naming both files and where their truths part.
+//! the same times, with the same values bit for bit (the same case and seed), and the same
+//! tolerances (`X_tolerance`, see `report.rs`). Runs that do not are refused, naming both
+//! files and where their truths part.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -44,6 +45,9 @@ pub struct Column {
     pub value: fn(&PairReport) -> Option<f64>,
     /// Its text for a pair.
     pub text: fn(&PairReport) -> String,
+    /// Shown only for the signals where some run has a value: a metric most logs do not
+    /// define would add an empty column to all their tables.
+    pub where_defined: bool,
 }
 
 /// Four significant digits, in plain notation from 0.001 to 99 999: RMSEs of 1e-4 m and of
@@ -65,13 +69,14 @@ fn band_text(p: &PairReport) -> String {
 }
 
 /// The metrics compared, in table order.
-pub const COLUMNS: [Column; 9] = [
+pub const COLUMNS: [Column; 10] = [
     Column {
         key: "correlation",
         heading: "corr",
         goal: Goal::Highest,
         value: |p| Some(p.metrics.correlation),
         text: |p| format!("{:.5}", p.metrics.correlation),
+        where_defined: false,
     },
     Column {
         key: "rmse",
@@ -79,6 +84,7 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Lowest,
         value: |p| Some(p.metrics.rmse),
         text: |p| significant(p.metrics.rmse),
+        where_defined: false,
     },
     Column {
         key: "rmse_converged",
@@ -86,6 +92,7 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Lowest,
         value: |p| Some(p.metrics.rmse_converged),
         text: |p| significant(p.metrics.rmse_converged),
+        where_defined: false,
     },
     Column {
         key: "convergence_time",
@@ -93,6 +100,7 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Lowest,
         value: |p| Some(p.metrics.convergence_time),
         text: |p| format!("{:.2}", p.metrics.convergence_time),
+        where_defined: false,
     },
     Column {
         key: "running_rmse_peak",
@@ -100,6 +108,7 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Lowest,
         value: |p| Some(p.metrics.running_rmse_peak),
         text: |p| significant(p.metrics.running_rmse_peak),
+        where_defined: false,
     },
     Column {
         key: "running_rmse_max_converged",
@@ -107,6 +116,7 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Lowest,
         value: |p| Some(p.metrics.running_rmse_max_converged),
         text: |p| significant(p.metrics.running_rmse_max_converged),
+        where_defined: false,
     },
     Column {
         key: "two_sigma_coverage",
@@ -115,6 +125,15 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Nearest(0.9545),
         value: |p| p.two_sigma_coverage,
         text: |p| p.two_sigma_coverage.map_or("—".into(), |v| format!("{v:.3}")),
+        where_defined: false,
+    },
+    Column {
+        key: "in_tolerance",
+        heading: "in tolerance",
+        goal: Goal::Highest,
+        value: |p| p.in_tolerance,
+        text: |p| p.in_tolerance.map_or("—".into(), |v| format!("{v:.3}")),
+        where_defined: true,
     },
     Column {
         key: "final_relative_error",
@@ -122,6 +141,7 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Lowest,
         value: |p| Some(p.metrics.final_relative_error),
         text: |p| format!("{:.2e}", p.metrics.final_relative_error),
+        where_defined: false,
     },
     Column {
         key: "psd_agreement_band",
@@ -130,10 +150,16 @@ pub const COLUMNS: [Column; 9] = [
         goal: Goal::Highest,
         value: |p| p.psd_agreement_band.map(|(lo, hi)| hi - lo),
         text: band_text,
+        where_defined: false,
     },
 ];
 
 impl Column {
+    /// Whether the tables of these pairs (one signal's, one per run) show this column.
+    pub fn shown(&self, pairs: &[&PairReport]) -> bool {
+        !self.where_defined || pairs.iter().any(|p| (self.value)(p).is_some())
+    }
+
     /// The index of the best of these pairs (the first of equals); `None` if no value is defined.
     pub fn best(&self, pairs: &[&PairReport]) -> Option<usize> {
         let score = |v: f64| match self.goal {
@@ -258,6 +284,13 @@ fn check_shared_truth(first: &Run, first_report: &Report, run: &Run, report: &Re
                 a.truth, a.time[k], a.truth_values[k], b.truth_values[k]
             ));
         }
+        // The recording draws the first run's tolerance for all, and the runs' fractions in
+        // tolerance are compared: they must be held to the same requirement.
+        let bits =
+            |p: &PairReport| p.tolerance.as_ref().map(|t| t.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+        if bits(a) != bits(b) {
+            return refuse(format!("the tolerance of truth {} differs (or one has none)", a.truth));
+        }
     }
     Ok(())
 }
@@ -284,10 +317,18 @@ impl Comparison<'_> {
                 p.compared_from,
                 p.time.last().copied().unwrap_or(0.0)
             );
-            let best: Vec<Option<usize>> = COLUMNS.iter().map(|c| c.best(&pairs)).collect();
+            if let Some(tolerance) = &p.tolerance {
+                let _ = writeln!(
+                    out,
+                    "in tolerance: |estimate − truth| ≤ {} ({})",
+                    tolerance.signal, tolerance.description
+                );
+            }
+            let columns: Vec<&Column> = COLUMNS.iter().filter(|c| c.shown(&pairs)).collect();
+            let best: Vec<Option<usize>> = columns.iter().map(|c| c.best(&pairs)).collect();
             let cells: Vec<Vec<String>> =
-                pairs.iter().map(|pair| COLUMNS.iter().map(|column| (column.text)(pair)).collect()).collect();
-            let widths: Vec<usize> = COLUMNS
+                pairs.iter().map(|pair| columns.iter().map(|column| (column.text)(pair)).collect()).collect();
+            let widths: Vec<usize> = columns
                 .iter()
                 .enumerate()
                 .map(|(j, c)| {
@@ -295,7 +336,7 @@ impl Comparison<'_> {
                 })
                 .collect();
             let _ = write!(out, "{:<width$}", "run");
-            for (column, w) in COLUMNS.iter().zip(&widths) {
+            for (column, w) in columns.iter().zip(&widths) {
                 let _ = write!(out, "  {:>w$}", column.heading);
             }
             out.push('\n');

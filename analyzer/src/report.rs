@@ -5,6 +5,10 @@
 //! deviation (for the ±2σ band and its coverage). `--pair truth.X=estimate.Y`
 //! adds or replaces a pair. Samples are matched by time stamp; only the
 //! times both channels have are compared.
+//!
+//! Tolerance rule: `X_tolerance` on `/truth`, beside `X`, is the half-width of an accuracy
+//! requirement on `X` (same unit, ≥ 0): the fraction of samples whose error is within it is
+//! reported, and it is not itself compared (unless `--pair` names it).
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -67,6 +71,10 @@ pub struct PairReport<'a> {
     pub metrics: Metrics,
     /// Fraction of samples whose error is within ±2σ (`None` without σ).
     pub two_sigma_coverage: Option<f64>,
+    /// The accuracy requirement on the truth signal, if `/truth` has its `<truth>_tolerance`.
+    pub tolerance: Option<Tolerance<'a>>,
+    /// Fraction of samples whose error is within ± the tolerance (`None` without one).
+    pub in_tolerance: Option<f64>,
     /// The widest band (Hz) where the spectra agree within the threshold.
     pub psd_agreement_band: Option<(f64, f64)>,
     /// Compared times (s); borrowed from the run where the channels' samples line up.
@@ -92,6 +100,22 @@ pub struct PairReport<'a> {
     pub estimate_spectrum: Spectrum,
 }
 
+/// An accuracy requirement: the truth signal `X_tolerance`, the half-width of the band
+/// that `X`'s error (estimate − truth) should stay within.
+#[derive(Debug, Clone, Serialize)]
+pub struct Tolerance<'a> {
+    /// Its truth signal's name.
+    pub signal: String,
+    /// Its truth signal's description (where the requirement comes from).
+    pub description: String,
+    /// Its values at the compared times (≥ 0, in the unit of the pair).
+    #[serde(skip)]
+    pub values: Cow<'a, [f64]>,
+}
+
+/// The tolerance of the truth signal `X` is the truth signal `X` + this.
+pub const TOLERANCE_SUFFIX: &str = "_tolerance";
+
 /// The analysis of a log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report<'a> {
@@ -116,10 +140,15 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
     let truth = run.channel(TRUTH)?;
     let topic = options.estimate_topic.as_str();
     let estimate = run.channel(topic)?;
+    // A tolerance is a requirement on its signal, not an estimated quantity: left unpaired
+    // even where the estimates happen to have a namesake.
+    let is_tolerance = |name: &str| {
+        name.strip_suffix(TOLERANCE_SUFFIX).is_some_and(|x| truth.signals.iter().any(|s| s.spec.name == x))
+    };
     let mut pairs: Vec<(String, String)> = truth
         .signals
         .iter()
-        .filter(|s| estimate.signal(&s.spec.name).is_some())
+        .filter(|s| estimate.signal(&s.spec.name).is_some() && !is_tolerance(&s.spec.name))
         .map(|s| (s.spec.name.clone(), s.spec.name.clone()))
         .collect();
     for (t, e) in &options.pairs {
@@ -183,6 +212,25 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             let inside = t.iter().zip(e).zip(&s[first..]).filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s).count();
             inside as f64 / t.len() as f64
         });
+        let tolerance_signal = format!("{t_name}{TOLERANCE_SUFFIX}");
+        let tolerance = match truth.signal(&tolerance_signal) {
+            Some(s) => {
+                let values = picked(&s.values, TRUTH, &tolerance_signal, 0)?;
+                if let Some(k) = values.iter().position(|v| *v < 0.0) {
+                    return Err(fail(format!(
+                        "{TRUTH} signal '{tolerance_signal}' is negative ({}) at t = {} s; a tolerance is a half-width",
+                        values[k], time[k]
+                    )));
+                }
+                Some(Tolerance { signal: tolerance_signal, description: s.spec.description.clone(), values })
+            }
+            None => None,
+        };
+        let in_tolerance = tolerance.as_ref().map(|tol| {
+            let inside =
+                t.iter().zip(e).zip(&tol.values[first..]).filter(|((t, e), bound)| (*e - *t).abs() <= **bound).count();
+            inside as f64 / t.len() as f64
+        });
         let fs = 1.0 / dt;
         let [truth_spectrum, estimate_spectrum] = welch_pair(t, e, fs, options.psd_segment);
         reports.push(PairReport {
@@ -193,6 +241,8 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             compared_from: time[first],
             metrics,
             two_sigma_coverage,
+            tolerance,
+            in_tolerance,
             psd_agreement_band: agreement_band(&truth_spectrum, &estimate_spectrum, options.agreement_db),
             running_rmse,
             time: time.clone(),

@@ -2,16 +2,15 @@
 //! is a comparison of one), for the Rerun viewer 0.36.
 //!
 //! Entity paths (`<signal>` is the compared truth signal's name, or `X~Y` when `--pair` pairs
-//! differently named signals; `<run>` is the run's label, its filter); series are on the
-//! `sim_time` duration timeline:
+//! differently named signals; `<run>` is the run's label, its filter); each view's lines are
+//! one entity, a scalar per line and row, named in the legend; series are on the `sim_time`
+//! duration timeline:
 //!
 //! | path | what |
 //! |---|---|
-//! | `signals/<signal>/truth` | the truth the runs share |
-//! | `signals/<signal>/<run>/estimate` | each run's estimate |
-//! | `signals/<signal>/<run>/plus_2sigma`, `…/minus_2sigma` | its ± 2σ band, where σ is logged; shown for the first run, the others' in the legend, to switch on |
-//! | `errors/<signal>/<run>` | estimate − truth |
-//! | `rmse/<signal>/<run>` | the running RMSE |
+//! | `signals/<signal>` | the truth the runs share; each run's estimate; its ± 2σ band, where σ is logged (shown for the first run, the others' in the legend, to switch on); truth ± tolerance, where `/truth` has `<signal>_tolerance` (in the legend, to switch on) |
+//! | `errors/<signal>` | each run's estimate − truth; ± tolerance, where `/truth` has `<signal>_tolerance` |
+//! | `rmse/<signal>` | each run's running RMSE |
 //! | `measurements/<signal>` | what the first run's estimator was fed; missing (NaN) samples left out; a view per unit |
 //! | `psd/<signal>/loglog/truth`, `…/<run>` | Welch PSDs, log-log, static (see [`PSD_VIEW`]) |
 //! | `report` | the metrics tables, the runs' metadata and parameters, markdown, static |
@@ -181,6 +180,7 @@ fn envelope_note(n: usize) -> String {
 }
 
 /// The look of one line of a series.
+#[derive(Clone)]
 struct Line {
     name: String,
     /// `None`: the viewer's colour for the entity.
@@ -221,6 +221,11 @@ fn run_color(i: usize) -> Color {
 fn band_color(i: usize) -> Color {
     let [r, g, b, _] = run_color(i).to_array();
     Color::from_unmultiplied_rgba(r, g, b, 120)
+}
+
+/// The tolerance's colour: gold, a hue no run has.
+fn tolerance_color(alpha: u8) -> Color {
+    Color::from_unmultiplied_rgba(255, 200, 0, alpha)
 }
 
 fn grid_color() -> Color {
@@ -369,6 +374,29 @@ impl Recording<'_> {
             lines.push(Line::new(format!("{label} ± 2σ"), band_color(i), 0.75, i == 0));
         }
         columns.extend(bands.iter().map(Vec::as_slice));
+        // Runs that share their truth share its tolerance (`check_shared_truth`): the first's.
+        let tolerance = first.tolerance.as_ref();
+        // A band's two edges get one name: the legend lists (and switches) them as one entry.
+        // Around the errors the band is the yardstick: opaque, wider than the runs, shown.
+        // Around the truth it is usually a few per cent of the axis, so its edges would cover
+        // the truth and the estimates: thin, translucent, and in the legend only, to switch
+        // on when zoomed in.
+        let tolerance_lines = |name: String, around_truth: bool| {
+            let line = if around_truth {
+                Line::new(name, tolerance_color(140), 1.0, false)
+            } else {
+                Line::new(name, tolerance_color(255), 2.0, true)
+            };
+            [line.clone(), line]
+        };
+        let truth_band = match tolerance {
+            Some(t) => {
+                lines.extend(tolerance_lines(format!("truth ± {}", t.signal), true));
+                edges(&first.truth_values, &t.values)
+            }
+            None => Vec::new(),
+        };
+        columns.extend(truth_band.iter().map(Vec::as_slice));
         let signals = entity(&["signals", &name]);
         self.style(&signals, &lines)?;
         self.series(&signals, &first.time, &columns)?;
@@ -379,9 +407,19 @@ impl Recording<'_> {
             .collect();
         let run_lines: Vec<Line> =
             runs().map(|(i, (_, label))| Line::new(label.clone(), run_color(i), 1.0, true)).collect();
+        let mut error_lines = run_lines.clone();
+        let mut error_columns: Vec<&[f64]> = errors.iter().map(Vec::as_slice).collect();
+        let error_band = match tolerance {
+            Some(t) => {
+                error_lines.extend(tolerance_lines(format!("± {}", t.signal), false));
+                edges(&vec![0.0; t.values.len()], &t.values)
+            }
+            None => Vec::new(),
+        };
+        error_columns.extend(error_band.iter().map(Vec::as_slice));
         let errors_entity = entity(&["errors", &name]);
-        self.style(&errors_entity, &run_lines)?;
-        self.series(&errors_entity, &first.time, &errors.iter().map(Vec::as_slice).collect::<Vec<_>>())?;
+        self.style(&errors_entity, &error_lines)?;
+        self.series(&errors_entity, &first.time, &error_columns)?;
         let rmse_entity = entity(&["rmse", &name]);
         self.style(&rmse_entity, &run_lines)?;
         self.series(&rmse_entity, &first.time, &pairs.iter().map(|p| p.running_rmse.as_slice()).collect::<Vec<_>>())?;
@@ -463,6 +501,11 @@ impl Recording<'_> {
     }
 }
 
+/// The edges `centre + half_width` and `centre − half_width` of a band.
+fn edges(centre: &[f64], half_width: &[f64]) -> Vec<Vec<f64>> {
+    [1.0, -1.0].iter().map(|sign| centre.iter().zip(half_width).map(|(c, h)| c + sign * h).collect()).collect()
+}
+
 /// 10^k as people write it: `0.01`, `0.1`, `1`, `10`, `1000`.
 fn decade(k: i32) -> String {
     if k >= 0 {
@@ -517,13 +560,21 @@ fn markdown(comparison: &Comparison) -> String {
             p.time.last().copied().unwrap_or(0.0),
             envelope_note(p.time.len())
         );
+        if let Some(t) = &p.tolerance {
+            let _ = writeln!(
+                md,
+                "Tolerance `{}`: {}. *in tolerance*: the fraction of samples with |estimate − truth| within it.\n",
+                cell(&t.signal),
+                cell(&t.description)
+            );
+        }
         // A row per metric and a column per run: it fits the side panel.
         let _ = write!(md, "| metric |");
         for label in labels {
             let _ = write!(md, " {} |", cell(label));
         }
         let _ = writeln!(md, "\n|---|{}", "---:|".repeat(labels.len()));
-        for column in &COLUMNS {
+        for column in COLUMNS.iter().filter(|c| c.shown(&pairs)) {
             let best = column.best(&pairs);
             let _ = write!(md, "| {} |", column.heading);
             for (i, pair) in pairs.iter().enumerate() {
@@ -551,12 +602,18 @@ fn markdown(comparison: &Comparison) -> String {
         }
         md.push('\n');
     }
+    let tolerances = if first.pairs.iter().any(|p| p.tolerance.is_some()) {
+        "- Where the truth has `<signal>_tolerance`, an accuracy requirement: gold lines at ± it in \
+         `errors/<signal>`, and at truth ± it in `signals/<signal>` (in the legend, to switch on).\n"
+    } else {
+        ""
+    };
     let _ = writeln!(
         md,
         "\n## Views\n\n- `signals/<signal>`: the truth and each run's estimate with its ± 2σ band (the first run's \
          shown; click a legend entry to show or hide a line), on `{TIMELINE}` (s).\n\
          - `errors/<signal>`, `rmse/<signal>`: each run's estimate − truth and its running RMSE.\n\
-         - `psd/<signal>/loglog`: Welch PSDs, {PSD_VIEW}.\n\
+         {tolerances}- `psd/<signal>/loglog`: Welch PSDs, {PSD_VIEW}.\n\
          - `measurements/<signal>`: the first run's estimator inputs, a view per unit; missing samples are left out.\n\
          - Series longer than {MAX_ROWS} samples are drawn as their min/max envelope: of every few samples, \
          the smallest and the largest at their own times (the view's title says how many); the log has them all.\n"
@@ -623,13 +680,14 @@ fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
             let titled = with_unit(&name, &p.unit);
             let note = envelope_note(p.time.len());
             let bands = if p.sigma.is_some() { " ± 2σ" } else { "" };
+            let tolerance = p.tolerance.as_ref().map_or(String::new(), |t| format!(", tolerance ± {}", t.signal));
             let psd_unit = if p.unit.is_empty() { "1/Hz".to_string() } else { format!("{}²/Hz", p.unit) };
             Vertical::new([
                 TimeSeriesView::new(format!("{titled}: truth and estimates{bands}{note}"))
                     .with_origin(entity(&["signals", &name]))
                     .into(),
                 Horizontal::new([
-                    TimeSeriesView::new(format!("{titled}: error (estimate − truth){note}"))
+                    TimeSeriesView::new(format!("{titled}: error (estimate − truth){tolerance}{note}"))
                         .with_origin(entity(&["errors", &name]))
                         .into(),
                     TimeSeriesView::new(format!("{titled}: running RMSE over {window} s{note}"))

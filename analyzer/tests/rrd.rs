@@ -262,6 +262,7 @@ fn the_recording_holds_the_spectra_the_tables_and_a_blueprint() {
     let rmse = |cell: &str| cell.trim_matches('*').parse::<f64>().unwrap();
     assert!((rmse(cells[1]) - a.metrics.rmse).abs() < 1e-3 * a.metrics.rmse, "{row}");
     assert!(text.contains("| metric | A | B |"), "{text}");
+    assert!(!text.contains("in tolerance"), "no tolerance, no column: {text}");
     // The metadata as a table with a column per run, the parameters one per row.
     assert!(text.contains("| seed | 7 | 7 |"), "{text}");
     assert!(text.contains("| parameter `q_std` | 0.05 | 0.1 |"), "{text}");
@@ -354,4 +355,91 @@ fn rerun_off_in_the_environment_is_an_error_not_a_missing_file() {
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("off.rrd: cannot write the Rerun recording: the RERUN environment variable"), "{stderr}");
     assert!(!rrd.exists());
+}
+
+/// 200 samples at 100 Hz of filter `filter`: truth `F = k`, its tolerance `F_tolerance`
+/// (0.5 on the first half of every 8 samples, 0.25 on the second, times `scale`), and the
+/// estimate `F` off by the errors `ERRORS` in turn (exact in binary, so that `≤` at the
+/// edge is exact). The estimates also have an `F_tolerance`, which must not be compared.
+fn write_tolerance_run(path: &Path, filter: &str, scale: f64) {
+    const ERRORS: [f64; 8] = [0.0, 0.375, -0.625, 0.5, 0.125, -0.375, 0.25, -0.125];
+    let metadata = BTreeMap::from([("filter".to_string(), filter.to_string())]);
+    let mut w = LogWriter::create(path, &metadata).unwrap();
+    let t = w
+        .add_channel(
+            TRUTH,
+            &[SignalSpec::new("F", "N", "true load"), SignalSpec::new("F_tolerance", "N", "load accuracy required")],
+        )
+        .unwrap();
+    let e = w
+        .add_channel(
+            ESTIMATE,
+            &[SignalSpec::new("F", "N", "estimated load"), SignalSpec::new("F_tolerance", "N", "a namesake")],
+        )
+        .unwrap();
+    for k in 0..200 {
+        let time = k as f64 * 0.01;
+        let tolerance = scale * if k % 8 < 4 { 0.5 } else { 0.25 };
+        w.write(t, time, &[k as f64, tolerance]).unwrap();
+        w.write(e, time, &[k as f64 + ERRORS[k % 8], 7.0]).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_tolerance_is_drawn_as_a_band_and_scored_not_compared() {
+    let log = temp("tolerance.mcap");
+    write_tolerance_run(&log, "A", 1.0);
+    let runs: &'static [Run] = Vec::leak(vec![read_log(&log).unwrap()]);
+    let comparison = compare_runs(runs, &Options::default()).unwrap();
+    let pairs = &comparison.runs[0].pairs;
+    assert_eq!(pairs.len(), 1, "F alone is compared, not F_tolerance");
+    // Of every 8 errors, |0|, |0.375| ≤ 0.5, |−0.625| > 0.5, |0.5| ≤ 0.5 (the edge is in);
+    // |0.125| ≤ 0.25, |−0.375| > 0.25, |0.25| ≤ 0.25, |−0.125| ≤ 0.25: 6 of 8.
+    assert_eq!(pairs[0].in_tolerance, Some(0.75));
+    let tolerance = pairs[0].tolerance.as_ref().unwrap();
+    assert_eq!((tolerance.signal.as_str(), tolerance.description.as_str()), ("F_tolerance", "load accuracy required"));
+    let table = comparison.table();
+    assert!(table.contains("in tolerance: |estimate − truth| ≤ F_tolerance (load accuracy required)"), "{table}");
+    let row = table.lines().find(|l| l.starts_with("A ")).unwrap();
+    assert_eq!(row.split_whitespace().nth(8), Some("0.750"), "the in-tolerance column, after 2σ cov (—): {table}");
+    let json = temp("tolerance.json");
+    comparison.write_json(&json).unwrap();
+    let value: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(value["runs"][0]["pairs"][0]["in_tolerance"], 0.75);
+    assert_eq!(value["runs"][0]["pairs"][0]["tolerance"]["signal"], "F_tolerance");
+
+    let path = temp("tolerance.rrd");
+    write_rrd(&comparison, runs, &path).unwrap();
+    let rrd = Decoded::read(&path);
+    // The band's two edges, one legend entry, after the runs' lines in both views.
+    assert_eq!(rrd.line_names("errors/F"), ["A", "± F_tolerance", "± F_tolerance"]);
+    assert_eq!(rrd.line_names("signals/F"), ["truth F", "A F", "truth ± F_tolerance", "truth ± F_tolerance"]);
+    let tolerance: Vec<f64> = (0..200).map(|k| if k % 8 < 4 { 0.5 } else { 0.25 }).collect();
+    assert_eq!(rrd.line("errors/F", 1), tolerance);
+    assert_eq!(rrd.line("errors/F", 2), tolerance.iter().map(|v| -v).collect::<Vec<_>>());
+    let truth: Vec<f64> = (0..200).map(f64::from).collect();
+    let upper: Vec<f64> = truth.iter().zip(&tolerance).map(|(t, v)| t + v).collect();
+    assert_eq!(rrd.line("signals/F", 2), upper);
+    assert_eq!(rrd.line("signals/F", 3)[7], 7.0 - 0.25);
+    assert!(rrd.recording.iter().all(|c| !c.entity_path().to_string().contains("F_tolerance")), "not a signal");
+    let titles = rrd.view_names();
+    assert!(titles.contains(&"F [N]: error (estimate − truth), tolerance ± F_tolerance".to_string()), "{titles:?}");
+    let text = rrd.text("report");
+    assert!(text.contains("| in tolerance | 0.750 |"), "{text}");
+    assert!(text.contains("Tolerance `F_tolerance`: load accuracy required."), "{text}");
+}
+
+#[test]
+fn runs_held_to_other_tolerances_are_refused_and_a_negative_tolerance_too() {
+    let (tight, loose, negative) = (temp("tight.mcap"), temp("loose.mcap"), temp("negative.mcap"));
+    write_tolerance_run(&tight, "A", 1.0);
+    write_tolerance_run(&loose, "B", 2.0);
+    write_tolerance_run(&negative, "C", -1.0);
+    let runs = [read_log(&tight).unwrap(), read_log(&loose).unwrap()];
+    let err = compare_runs(&runs, &Options::default()).unwrap_err().to_string();
+    assert!(err.contains("the tolerance of truth F differs"), "{err}");
+    let runs = [read_log(&negative).unwrap()];
+    let err = compare_runs(&runs, &Options::default()).unwrap_err().to_string();
+    assert!(err.contains("'F_tolerance' is negative (-0.5) at t = 0 s"), "{err}");
 }

@@ -88,6 +88,13 @@ pub fn run(
     let truth = [
         SignalSpec::new("position", "m", "true position of the reference point"),
         SignalSpec::new("speed", "m/s", "true speed of the reference point"),
+        // The requirement the study is judged by, drawn and scored by the analyzer
+        // (`X_tolerance`, docs/log-format.md).
+        SignalSpec::new(
+            "speed_tolerance",
+            "m/s",
+            "ETCS speed accuracy (SUBSET-041 §5.3.1): ±2 km/h below 30 km/h, rising linearly to ±12 km/h at 500 km/h",
+        ),
     ];
     let metadata = BTreeMap::from([("study".to_string(), "S4".to_string()), ("case".to_string(), case.to_string())]);
     let setup = Setup {
@@ -111,7 +118,10 @@ pub fn run(
             z.push(f64::NAN);
             z
         },
-        |k| vec![recording.truth[k].position, recording.truth[k].speed],
+        |k| {
+            let truth = &recording.truth[k];
+            vec![truth.position, truth.speed, super::metrics::etcs_speed_band(truth.speed)]
+        },
         log,
         |_| {},
     )
