@@ -132,6 +132,8 @@ struct Setup {
     supervisor: fn(&Setup) -> Supervisor,
     /// `n` samples of inputs `dt` apart from a seed: the plant's outputs a master sets.
     measurements: fn(&Setup, usize, f64, u64) -> Vec<Vec<f64>>,
+    /// The plant's outputs at any time `t`, for masters off the sample grid.
+    signal: fn(&Setup, f64) -> Vec<f64>,
 }
 
 impl Setup {
@@ -179,6 +181,7 @@ impl Setup {
             reference: s1_reference,
             supervisor: default_supervisor,
             measurements: accelerations,
+            signal: tones,
         }
     }
 
@@ -193,6 +196,7 @@ impl Setup {
             reference: s2_reference,
             supervisor: default_supervisor,
             measurements: accelerations,
+            signal: tones,
         }
     }
 
@@ -207,6 +211,7 @@ impl Setup {
             reference: s5_reference,
             supervisor: default_supervisor,
             measurements: accelerations,
+            signal: tones,
         }
     }
 
@@ -221,6 +226,7 @@ impl Setup {
             reference: s4_reference,
             supervisor: s4_supervisor,
             measurements: s4_telegrams,
+            signal: s4_signal,
         }
     }
 
@@ -543,6 +549,22 @@ fn s4_telegrams(s: &Setup, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
     rows
 }
 
+/// Input i at `t`: a tone of (7 + 4i) rad/s and a small one of 53 rad/s.
+fn tones(s: &Setup, t: f64) -> Vec<f64> {
+    (0..s.inputs().len())
+        .map(|i| 0.5 * ((7.0 + 4.0 * i as f64) * t).sin() + 0.1 * (53.0 * t + i as f64).cos())
+        .collect()
+}
+
+/// S4's channels at `t`: the train of `s4_telegrams` without its faults, a 1 mm tone of
+/// 53 rad/s in place of the noise (a live channel never repeats), no marker.
+fn s4_signal(s: &Setup, t: f64) -> Vec<f64> {
+    let levers = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"].map(|l| s.get(l));
+    let offsets = [0.03, -0.02, 0.01, -0.04];
+    let position = 0.3 + 5.0 * t;
+    (0..4).map(|c| position + levers[c] + offsets[c] + 1e-3 * (53.0 * t + c as f64).sin()).chain([f64::NAN]).collect()
+}
+
 fn accelerations(s: &Setup, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
     let m = s.inputs().len();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -806,17 +828,14 @@ fn s5_outputs_equal_the_library_run_in_process() {
 /// * a read off the grid: the prediction from the last sample to that time,
 ///   with the process noise of that interval.
 fn check_master(setup: &Setup, h: f64, samples: usize) {
-    let (model, ts, m) = (setup.model(), setup.sample_time(), setup.inputs().len());
+    let (model, ts) = (setup.model(), setup.sample_time());
     let duration = samples as f64 * ts;
-    // Input i: a tone of (7 + 4i) rad/s and a small one of 53 rad/s.
-    let signal = |t: f64| -> Vec<f64> {
-        (0..m).map(|i| 0.5 * ((7.0 + 4.0 * i as f64) * t).sin() + 0.1 * (53.0 * t + i as f64).cos()).collect()
-    };
+    let signal = |t: f64| (setup.signal)(setup, t);
     let import: Fmi2Import = fmi::import::from_path(fmu_path(model)).expect("importing the .fmu");
     let mut fmu = Fmu::new(&import, setup, &format!("master-{h}"));
     fmu.initialise(setup, duration);
     let mut reference = setup.reference_filter();
-    let mut supervisor = Supervisor::new(SupervisorSettings::default(), m).unwrap();
+    let mut supervisor = (setup.supervisor)(setup);
     let steps = (duration / h).round() as usize;
     let mut k = 0; // the reference's sample
     let on_grid = |t: f64| ((t / ts).round() * ts - t).abs() < 1e-9;
@@ -857,7 +876,7 @@ fn check_master(setup: &Setup, h: f64, samples: usize) {
 }
 
 /// Communication steps of a fifth of the sample time and of two: 1 and 10 ms
-/// at S1's 5 ms, 0.2 and 2 ms at S2's 1 ms; 100 samples each.
+/// at S1's 5 ms, 0.2 and 2 ms at S2's 1 ms, 4 and 40 ms at S4's 20 ms; 100 samples each.
 fn communication_steps_shorter_and_longer_than_the_sample_time(setup: &Setup) {
     let ts = setup.sample_time();
     check_master(setup, ts / 5.0, 100);
@@ -872,6 +891,11 @@ fn s1_communication_steps_shorter_and_longer_than_the_sample_time() {
 #[test]
 fn s2_communication_steps_shorter_and_longer_than_the_sample_time() {
     communication_steps_shorter_and_longer_than_the_sample_time(&Setup::s2());
+}
+
+#[test]
+fn s4_communication_steps_shorter_and_longer_than_the_sample_time() {
+    communication_steps_shorter_and_longer_than_the_sample_time(&Setup::s4());
 }
 
 /// 400 samples, a saved state, 300 more; the state restored and serialised
