@@ -16,25 +16,11 @@ use estimator::FilterKind;
 use super::channels::simulate;
 use super::compare::{compare_with, print_comparison};
 use super::faults::Faults;
-use super::fmu_run::{self, IDENTIFIER};
+use super::fmu_run::{self, COMPARED, IDENTIFIER};
 use super::ours::{self, Settings, Tuning};
 use super::profile::Profile;
 use crate::fmu_driver::ImportedFmu;
 use crate::reproduce::{compare_case, largest_difference, log_path, rows_of};
-
-/// What the FMU's outputs are checked on against the in-process run.
-const CHECKED: [&str; 10] = [
-    "position",
-    "speed",
-    "offset_head_left",
-    "offset_head_right",
-    "offset_tail_left",
-    "offset_tail_right",
-    "weight_head_left",
-    "weight_head_right",
-    "weight_tail_left",
-    "weight_tail_right",
-];
 
 /// Runs S4 through its FMU and prints the tables; returns the number of failed runs.
 pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
@@ -64,8 +50,9 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
             let log = log_path(&stem, kind);
             let checked = fmu_run::run(&fmu, kind, &recording, &tuning, case, &log).and_then(|_| {
                 let run = read_log(&log)?;
-                let through_fmu = rows_of(run.channel(ESTIMATE)?, CHECKED)?;
+                let through_fmu = rows_of(run.channel(ESTIMATE)?, COMPARED)?;
                 let library = ours::run(&recording, &Settings::new(kind, tuning)).map_err(anyhow::Error::msg)?;
+                // The same quantities, in the order of `COMPARED`.
                 let in_process: Vec<[f64; 10]> = library
                     .estimates
                     .iter()
