@@ -322,12 +322,7 @@ fn a_quantised_bias_step_is_taken_into_its_bias_state_and_a_spike_is_not() {
     let offsets = [0.03, -0.02, 0.01, -0.04];
     let prior =
         Gaussian::diagonal(&[0.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0], &[1e-2, 1e-2, 1e-2, 2.5e-3, 2.5e-3, 2.5e-3, 2.5e-3]);
-    let steps = QuantizedSteps {
-        quantum: 0.086,
-        after: 3,
-        tolerance: 0.01,
-        bias_states: (0..4).map(|c| Some(PrwTrain::OFFSETS + c)).collect(),
-    };
+    let steps = QuantizedSteps { quantum: 0.086, after: 3, tolerance: 0.01, bias_states: model.bias_states() };
     let mut noise_rng = rng(21);
     let zs: Vec<Vec<f64>> = (0..300)
         .map(|k| {

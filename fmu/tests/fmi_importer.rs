@@ -474,11 +474,14 @@ fn default_supervisor(s: &Setup) -> Supervisor {
     Supervisor::new(SupervisorSettings::default(), s.inputs().len()).unwrap()
 }
 
+/// S4's lever parameters, in channel order.
+const S4_LEVERS: [&str; 4] = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"];
+
 /// S4's reference: `PrwTrain` with the marker row, `Q` exact over `dt`, `R` from each
 /// channel's noise, a diagonal prior.
 fn s4_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
     let p = |n: &str| s.get(n);
-    let levers = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"].map(p);
+    let levers = S4_LEVERS.map(p);
     let model = PrwTrain {
         marker: true,
         jerk_intensity: p("jerk_intensity"),
@@ -513,7 +516,7 @@ fn s4_supervisor(s: &Setup) -> Supervisor {
         quantum: s.get("slot_pitch"),
         after: 3,
         tolerance: s.get("slip_tolerance"),
-        bias_states: (0..5).map(|c| (c < 4).then_some(PrwTrain::OFFSETS + c)).collect(),
+        bias_states: PrwTrain { marker: true, ..PrwTrain::new([0.0; 4]) }.bias_states(),
     };
     Supervisor::new(settings, 5).unwrap().with_steps(steps).unwrap()
 }
@@ -524,7 +527,7 @@ fn s4_supervisor(s: &Setup) -> Supervisor {
 /// 800–805; a marker reading every 50th sample, NaN between.
 fn s4_telegrams(s: &Setup, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let levers = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"].map(|l| s.get(l));
+    let levers = S4_LEVERS.map(|l| s.get(l));
     let offsets = [0.03, -0.02, 0.01, -0.04];
     let mut rows: Vec<Vec<f64>> = Vec::with_capacity(n);
     for k in 0..n {
@@ -559,7 +562,7 @@ fn tones(s: &Setup, t: f64) -> Vec<f64> {
 /// S4's channels at `t`: the train of `s4_telegrams` without its faults, a 1 mm tone of
 /// 53 rad/s in place of the noise (a live channel never repeats), no marker.
 fn s4_signal(s: &Setup, t: f64) -> Vec<f64> {
-    let levers = ["lever_head_left", "lever_head_right", "lever_tail_left", "lever_tail_right"].map(|l| s.get(l));
+    let levers = S4_LEVERS.map(|l| s.get(l));
     let offsets = [0.03, -0.02, 0.01, -0.04];
     let position = 0.3 + 5.0 * t;
     (0..4).map(|c| position + levers[c] + offsets[c] + 1e-3 * (53.0 * t + c as f64).sin()).chain([f64::NAN]).collect()

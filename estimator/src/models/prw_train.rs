@@ -172,6 +172,12 @@ impl PrwTrain {
         (mean, variance.max(0.0).sqrt())
     }
 
+    /// Per measurement row, the state that carries its bias: each channel's offset (its
+    /// slot slips are steps of that state, `QuantizedSteps`); the marker has none.
+    pub fn bias_states(&self) -> Vec<Option<usize>> {
+        (0..self.measurement_dim()).map(|row| (row < 4).then_some(Self::OFFSETS + row)).collect()
+    }
+
     /// `Q` over `dt` and `R`, for a filter that steps every `dt`.
     pub fn noise(&self, dt: f64) -> Result<Noise, FilterError> {
         Noise::new(self.process_noise(dt), self.measurement_noise())

@@ -14,14 +14,57 @@ use super::{DefaultExperiment, Descriptor, MAX_DERIVED};
 use crate::timing::Reading;
 use crate::variables::{Parameters, Role, Variable};
 
-/// The four channels: input, fault flag, lever parameter and its default (m: head ahead of
-/// the reference point, tail behind, 50 m apart [est: `docs/s4-maglev.md`]), offset state
-/// output, weight output.
-const CHANNELS: [(&str, &str, &str, f64, &str, &str); 4] = [
-    ("P_head_left", "P_head_left_fault", "lever_head_left", 25.0, "offset_head_left", "weight_head_left"),
-    ("P_head_right", "P_head_right_fault", "lever_head_right", 25.0, "offset_head_right", "weight_head_right"),
-    ("P_tail_left", "P_tail_left_fault", "lever_tail_left", -25.0, "offset_tail_left", "weight_tail_left"),
-    ("P_tail_right", "P_tail_right_fault", "lever_tail_right", -25.0, "offset_tail_right", "weight_tail_right"),
+/// One channel's variables.
+struct ChannelVariables {
+    /// The position input.
+    input: &'static str,
+    /// Its fault flag.
+    fault: &'static str,
+    /// Its sensor noise parameter.
+    sensor_std: &'static str,
+    /// The lever parameter and its default (m: head ahead of the reference point, tail
+    /// behind, 50 m apart [est: `docs/s4-maglev.md`]).
+    lever: (&'static str, f64),
+    /// The offset state's output and its σ.
+    offset: (&'static str, &'static str),
+    /// The weight output.
+    weight: &'static str,
+}
+
+/// The four channels, in measurement-row order.
+const CHANNELS: [ChannelVariables; 4] = [
+    ChannelVariables {
+        input: "P_head_left",
+        fault: "P_head_left_fault",
+        sensor_std: "r_P_head_left_std",
+        lever: ("lever_head_left", 25.0),
+        offset: ("offset_head_left", "offset_head_left_std"),
+        weight: "weight_head_left",
+    },
+    ChannelVariables {
+        input: "P_head_right",
+        fault: "P_head_right_fault",
+        sensor_std: "r_P_head_right_std",
+        lever: ("lever_head_right", 25.0),
+        offset: ("offset_head_right", "offset_head_right_std"),
+        weight: "weight_head_right",
+    },
+    ChannelVariables {
+        input: "P_tail_left",
+        fault: "P_tail_left_fault",
+        sensor_std: "r_P_tail_left_std",
+        lever: ("lever_tail_left", -25.0),
+        offset: ("offset_tail_left", "offset_tail_left_std"),
+        weight: "weight_tail_left",
+    },
+    ChannelVariables {
+        input: "P_tail_right",
+        fault: "P_tail_right_fault",
+        sensor_std: "r_P_tail_right_std",
+        lever: ("lever_tail_right", -25.0),
+        offset: ("offset_tail_right", "offset_tail_right_std"),
+        weight: "weight_tail_right",
+    },
 ];
 
 /// The marker input (measurement row 4).
@@ -73,9 +116,9 @@ const MOTION: [MotionState; 3] = [
 pub(super) fn descriptor() -> Descriptor {
     let non_negative = |var: Variable| var.bounded(Some(0.0), None);
     let mut v = Vec::new();
-    for (row, (input, ..)) in CHANNELS.into_iter().enumerate() {
+    for (row, channel) in CHANNELS.iter().enumerate() {
         v.push(Variable::measurement(
-            input,
+            channel.input,
             "m",
             row,
             "the channel's position telegram: the sensor's position along the guideway (NaN: not received; a repeat bit for bit is a resent telegram)",
@@ -90,9 +133,9 @@ pub(super) fn descriptor() -> Descriptor {
         )
         .intermittent(),
     );
-    for (row, (_, flag, ..)) in CHANNELS.into_iter().enumerate() {
+    for (row, channel) in CHANNELS.iter().enumerate() {
         v.push(Variable::flag(
-            flag,
+            channel.fault,
             Role::ChannelFault(row),
             "the channel is faulty: rejected by the gate, stuck (resent) or missing for fault_after telegrams in a row",
         ));
@@ -113,7 +156,8 @@ pub(super) fn descriptor() -> Descriptor {
         Role::Derived(FUSED_SPEED_STD),
         "standard deviation of the fused speed",
     ));
-    for (c, (_, _, _, _, offset, weight)) in CHANNELS.into_iter().enumerate() {
+    for (c, channel) in CHANNELS.iter().enumerate() {
+        let (offset, offset_std) = channel.offset;
         v.push(Variable::output(
             offset,
             "m",
@@ -121,19 +165,19 @@ pub(super) fn descriptor() -> Descriptor {
             "the channel's offset: its installation error and slot slips",
         ));
         v.push(Variable::output(
-            OFFSET_STD[c],
+            offset_std,
             "m",
             Role::EstimateStd(PrwTrain::OFFSETS + c),
             "standard deviation of the offset",
         ));
         v.push(Variable::output(
-            weight,
+            channel.weight,
             "1",
             Role::Derived(WEIGHTS + c),
             "the channel's share in the speed's correction by the next telegram (0 while it is faulty)",
         ));
     }
-    for (_, _, lever, default, ..) in CHANNELS {
+    for &ChannelVariables { lever: (lever, default), .. } in &CHANNELS {
         v.push(Variable::parameter(lever, "m", default, "the channel's sensor ahead of the reference point"));
     }
     for m in &MOTION {
@@ -161,8 +205,8 @@ pub(super) fn descriptor() -> Descriptor {
             "random-walk intensity of the channels' offsets (0: constants)",
         )),
     ]);
-    for name in SENSOR_STD {
-        v.push(non_negative(Variable::tunable(name, "m", 1.5e-3, "noise std of the channel's position")));
+    for channel in &CHANNELS {
+        v.push(non_negative(Variable::tunable(channel.sensor_std, "m", 1.5e-3, "noise std of the channel's position")));
     }
     v.push(non_negative(Variable::tunable("r_marker_position_std", "m", 0.01, "noise std of a marker reading")));
     v.extend([
@@ -219,17 +263,10 @@ pub(super) fn descriptor() -> Descriptor {
     .finish()
 }
 
-/// The sensor noise parameters, channel by channel.
-const SENSOR_STD: [&str; 4] = ["r_P_head_left_std", "r_P_head_right_std", "r_P_tail_left_std", "r_P_tail_right_std"];
-
-/// The offsets' σ outputs, channel by channel.
-const OFFSET_STD: [&str; 4] =
-    ["offset_head_left_std", "offset_head_right_std", "offset_tail_left_std", "offset_tail_right_std"];
-
 fn model(p: &Parameters) -> Result<PrwTrain, String> {
     let mut levers = [0.0; 4];
-    for (lever, (_, _, name, ..)) in levers.iter_mut().zip(CHANNELS) {
-        *lever = p.finite(name)?;
+    for (lever, channel) in levers.iter_mut().zip(&CHANNELS) {
+        *lever = p.finite(channel.lever.0)?;
     }
     Ok(PrwTrain {
         marker: true,
@@ -260,8 +297,8 @@ fn build(
 fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
     let q = model(p)?.process_noise(dt);
     let mut r = DMatrix::zeros(PrwTrain::MARKER + 1, PrwTrain::MARKER + 1);
-    for (c, name) in SENSOR_STD.iter().enumerate() {
-        r[(c, c)] = p.non_negative(name)?.powi(2);
+    for (c, channel) in CHANNELS.iter().enumerate() {
+        r[(c, c)] = p.non_negative(channel.sensor_std)?.powi(2);
     }
     r[(PrwTrain::MARKER, PrwTrain::MARKER)] = p.non_negative("r_marker_position_std")?.powi(2);
     Noise::new(q, r).map_err(|e| e.to_string())
@@ -273,7 +310,7 @@ fn steps(p: &Parameters) -> Result<Option<QuantizedSteps>, String> {
         quantum: p.positive("slot_pitch")?,
         after: p.positive("slip_after")? as u32,
         tolerance: p.positive("slip_tolerance")?,
-        bias_states: (0..=PrwTrain::MARKER).map(|c| (c < 4).then_some(PrwTrain::OFFSETS + c)).collect(),
+        bias_states: model(p)?.bias_states(),
     }))
 }
 
@@ -285,8 +322,8 @@ fn derive(p: &Parameters, reading: &Reading<'_>, out: &mut [f64]) {
     (out[FUSED_SPEED], out[FUSED_SPEED_STD]) =
         PrwTrain::interval_speed(reading.belief.mean().as_slice(), &covariance, dt);
     let mut r = [f64::NAN; 4];
-    for (rc, name) in r.iter_mut().zip(SENSOR_STD) {
-        *rc = p.get(name).map_or(f64::NAN, |s| s * s);
+    for (rc, channel) in r.iter_mut().zip(&CHANNELS) {
+        *rc = p.get(channel.sensor_std).map_or(f64::NAN, |s| s * s);
     }
     let included: [bool; 4] = std::array::from_fn(|c| !reading.faulty[c]);
     out[WEIGHTS..WEIGHTS + 4].copy_from_slice(&PrwTrain::speed_weights(&covariance, r, included));

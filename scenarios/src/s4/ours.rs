@@ -283,7 +283,7 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
             quantum: SLOT_PITCH,
             after: settings.slip_after,
             tolerance: settings.slip_tolerance,
-            bias_states: (0..=PrwTrain::MARKER).map(|c| (c < 4).then_some(PrwTrain::OFFSETS + c)).collect(),
+            bias_states: model.bias_states(),
         };
         supervisor = supervisor.with_steps(steps).map_err(|e| format!("setup: {e}"))?;
     }
