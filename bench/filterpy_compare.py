@@ -8,7 +8,7 @@ study S2's wheel-rail model (Zhai's car, n = 24, m = 7, 1 kHz) — this script
 2. times filterpy's UnscentedKalmanFilter with MerweScaledSigmaPoints(alpha=1,
    beta=0, kappa=0) — the cubature rule — per predict + update, with the model
    and RK4 step in NumPy (tests/models.py, operation for operation as the Rust),
-3. times our filters through `scenarios replay` with "repeat" (its `step_ns`:
+3. times our filters through `kalfmu replay` with "repeat" (its `step_ns`:
    predict + update + storing the estimate, measured inside the binary; repeat
    sized to --seconds, the fastest of --trials runs; filterpy likewise takes
    the fastest of --filterpy-repeat runs: on a shared machine interference
@@ -20,7 +20,7 @@ study S2's wheel-rail model (Zhai's car, n = 24, m = 7, 1 kHz) — this script
 and prints a table: model, filter, ns/step ours, ns/step filterpy, ratio
 (filterpy / ours). Exits 1 if an estimate disagrees.
 
-    .venv/bin/python bench/filterpy_compare.py [--bin target/release/scenarios]
+    .venv/bin/python bench/filterpy_compare.py [--bin target/release/kalfmu]
 
 Without --bin it runs `cargo build --release --workspace` first. filterpy's
 time includes the NumPy model (that is what using filterpy on this model costs);
@@ -54,12 +54,12 @@ def build() -> Path:
     meta = subprocess.run(
         ["cargo", "metadata", "--format-version", "1", "--no-deps"], cwd=ROOT, check=True, capture_output=True, text=True
     )
-    return Path(json.loads(meta.stdout)["target_directory"]) / "release" / "scenarios"
+    return Path(json.loads(meta.stdout)["target_directory"]) / "release" / "kalfmu"
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--bin", type=Path, help="the scenarios binary (default: build it with cargo --release)")
+    parser.add_argument("--bin", type=Path, help="the kalfmu binary (default: build it with cargo --release)")
     parser.add_argument("--steps", type=int, default=1000, help="samples per model (default 1000)")
     parser.add_argument("--seconds", type=float, default=1.0, help="target time of each of our timing runs (s)")
     parser.add_argument("--trials", type=int, default=5, help="timing runs of ours; the fastest is shown")

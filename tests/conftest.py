@@ -1,4 +1,4 @@
-"""Shared fixtures: the release builds of the `scenarios` and `analyzer`
+"""Shared fixtures: the release builds of the `kalfmu` and `analyzer`
 binaries and of the estimator FMUs, each built once per session."""
 
 from __future__ import annotations
@@ -39,9 +39,9 @@ def build_release_binary(name: str, root: Path = ROOT) -> Path:
     return binary
 
 
-def build_scenarios(root: Path = ROOT) -> Path:
-    """The release `scenarios` binary."""
-    return build_release_binary("scenarios", root)
+def build_kalfmu(root: Path = ROOT) -> Path:
+    """The release `kalfmu` binary."""
+    return build_release_binary("kalfmu", root)
 
 
 def build_analyzer(root: Path = ROOT) -> Path:
@@ -58,9 +58,9 @@ def build_fmus(out: Path, root: Path = ROOT) -> Path:
 
 
 @pytest.fixture(scope="session")
-def scenarios_bin() -> Path:
-    """Path of target/release/scenarios, built once for the whole session."""
-    yield build_scenarios()
+def kalfmu_bin() -> Path:
+    """Path of target/release/kalfmu, built once for the whole session."""
+    yield build_kalfmu()
 
 
 @pytest.fixture(scope="session")

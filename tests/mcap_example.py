@@ -6,7 +6,7 @@ estimator driven by fmpy, logged with the `mcap` Python package. Copy and adapt.
     analyzer report OUT.mcap
 
 Without --fmu/--table the script builds both with cargo (the FMU with
-`package-fmus`, a 5 s table with `scenarios s1-export`).
+`package-fmus`, a 5 s table with `kalfmu s1-export`).
 
 The format (docs/log-format.md), in short:
 
@@ -132,7 +132,7 @@ class S1Run:
 
 
 def read_table(path: Path) -> tuple[dict[str, str], np.ndarray]:
-    """`scenarios s1-export` CSV: `# key = value` lines, a header, then the
+    """`kalfmu s1-export` CSV: `# key = value` lines, a header, then the
     rows time, z1_ddot, z2_ddot, F_true (row k at time k·dt)."""
     lines = Path(path).read_text().splitlines()
     meta = dict(line[2:].split(" = ", 1) for line in lines if line.startswith("# ") and " = " in line)
@@ -211,18 +211,18 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description="Runs the S1 FMU with fmpy and logs the run in the kalfmu MCAP format.")
     parser.add_argument("out", type=Path, help="the MCAP log to write")
     parser.add_argument("--fmu", type=Path, help="kalfmu_s1_load.fmu (default: build it)")
-    parser.add_argument("--table", type=Path, help="`scenarios s1-export` CSV (default: export 5 s)")
+    parser.add_argument("--table", type=Path, help="`kalfmu s1-export` CSV (default: export 5 s)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         if args.fmu is None or args.table is None:
-            from conftest import build_fmus, build_scenarios  # the cargo helpers of the test suite
+            from conftest import build_fmus, build_kalfmu  # the cargo helpers of the test suite
 
             if args.fmu is None:
                 args.fmu = build_fmus(Path(tmp)) / "kalfmu_s1_load.fmu"
             if args.table is None:
                 args.table = Path(tmp) / "s1.csv"
                 subprocess.run(
-                    [str(build_scenarios()), "s1-export", "--duration", "5", "--out", str(args.table)], check=True
+                    [str(build_kalfmu()), "s1-export", "--duration", "5", "--out", str(args.table)], check=True
                 )
         run = run_s1(args.fmu, args.table)
         write_s1_log(args.out, run, args.fmu)

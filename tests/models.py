@@ -257,7 +257,7 @@ class Rk4Discretized:
         return self.field.observe(np.asarray(x, dtype=float))
 
 
-#: Spec names of `scenarios replay` -> NumPy model factories.
+#: Spec names of `kalfmu replay` -> NumPy model factories.
 MODELS = {
     "oscillator_2dof_stiffness": lambda: Oscillator2DofLoad(Oscillator2Dof.stiffness_nonlinear()),
     "oscillator_2dof_damping": lambda: Oscillator2DofLoad(Oscillator2Dof.damping_nonlinear()),
@@ -267,7 +267,7 @@ MODELS = {
 
 # --------------------------------------------------------------------------
 # Harness shared by the tests and bench/filterpy_compare.py: simulated data,
-# the filterpy reference run, the `scenarios replay` run and the comparison.
+# the filterpy reference run, the `kalfmu replay` run and the comparison.
 # --------------------------------------------------------------------------
 
 
@@ -374,7 +374,7 @@ def wheel_rail_spec(steps: int = 1000, seed: int = 7, missing_every: int = 0) ->
     Zhai's car at 1 kHz: the model's own response to wheel-rail forces of the
     static wheel load (55.9 kN) plus sines (34 to 78 kN), the
     accelerometer noise 2 % of each channel's RMS, and the study's noise
-    (scenarios/src/s2/study.rs `Tuning`: motion noise 1e-8 car body and
+    (studies/src/s2/study.rs `Tuning`: motion noise 1e-8 car body and
     bogies, 1e-10 wheelsets, per sample; the forces' random walk 1e13 N²/s; R
     from the noise). The prior is at rest under the static load, as the
     study's, but with standard deviations of 1 mm (1 mrad), 1 cm/s (10 mrad/s)
@@ -441,7 +441,7 @@ def run_filterpy(spec: dict, alpha: float, beta: float, kappa: float, repeat: in
 
 
 def run_replay(binary, spec: dict, filter_name: str, ukf=None, repeat: int = 1) -> dict:
-    """`scenarios replay --input spec.json --output out.json`; returns the parsed
+    """`kalfmu replay --input spec.json --output out.json`; returns the parsed
     output with "means" and "covariances" as NumPy arrays."""
     import json
     import subprocess
@@ -460,7 +460,7 @@ def run_replay(binary, spec: dict, filter_name: str, ukf=None, repeat: int = 1) 
             text=True,
         )
         if proc.returncode != 0:
-            raise RuntimeError(f"scenarios replay failed ({proc.returncode}): {proc.stderr.strip()}")
+            raise RuntimeError(f"kalfmu replay failed ({proc.returncode}): {proc.stderr.strip()}")
         out = json.loads(out_path.read_text())
     out["means"] = np.array(out["means"], dtype=float)
     out["covariances"] = np.array(out["covariances"], dtype=float)

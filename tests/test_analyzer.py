@@ -15,7 +15,12 @@ What is specified here:
   transient (which crosses the analyzer's periodic re-summation) within the
   rounding its running sum carries (see that test);
 - the PSD agreement band equals the one computed from `scipy.signal.welch`
-  (defaults, same segment length) by the same rule, exactly (same bins).
+  (defaults, same segment length) by the same rule, exactly (same bins);
+- logs other tools write are analysed as our own: JSON messages written
+  with Python's `mcap`, and a ROS 2 bag (CDR, ros2msg schemas) written with
+  `mcap-ros2-support`, each with an estimate a known offset from the truth,
+  give that offset as their RMSE; a channel in an encoding the analyzer
+  does not read is skipped with a warning.
 
 The JSON report does not carry the spectra, only the band; the band depends
 on the ratio of the two Welch spectra, so it tests the window, detrending,
@@ -35,7 +40,9 @@ from scipy import signal as sps
 
 from fmpy import read_model_description
 from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
 from mcap_ros1.decoder import DecoderFactory
+from mcap_ros2.writer import Writer as Ros2Writer
 
 from mcap_example import KalfmuLog, Signal, run_s1, write_s1_log
 
@@ -350,3 +357,142 @@ def test_the_psd_cases_tell_each_variant_from_scipys_defaults():
         for _, fs, seg, a, b in PSD_CASES
     ]
     assert differs(dropped), "last segment left out"
+
+
+# --------------------------------------------------------------------------
+# Logs other tools write: JSON messages (Python's `mcap`) and a ROS 2 bag
+# (`mcap-ros2-support`, CDR with ros2msg schemas). The analyzer pairs
+# /truth X with /estimate X by name as in its own logs; the time of a sample
+# is the message's log_time.
+# --------------------------------------------------------------------------
+
+OFFSET = 0.25  # estimate = truth + OFFSET, so the RMSE is OFFSET
+STD = 0.2  # every |error| = 0.25 ≤ 2σ = 0.4: a ±2σ coverage of 1
+
+
+def known_error_samples(n=400, rate=100.0):
+    """Time, a truth with two tones, and an estimate OFFSET above it."""
+    time = np.arange(n) / rate
+    truth = np.sin(2 * np.pi * 1.5 * time) + 0.3 * np.sin(2 * np.pi * 7.0 * time)
+    return time, truth, truth + OFFSET
+
+
+def test_a_json_log_from_python_mcap_is_analysed_with_its_known_error(analyzer_bin, tmp_path):
+    """JSON messages with a jsonschema, as `mcap.writer.Writer` and json.dumps
+    write them (a bare NaN included, a string field beside the numbers, one
+    schema for every topic): the report pairs F with F over every sample, σ
+    from F_std (which no /truth message has, so /truth has no F_std to pair),
+    the unit from the schema, and measures RMSE = OFFSET."""
+    time, truth, estimate = known_error_samples()
+    path = tmp_path / "python_json.mcap"
+    schema = {
+        "type": "object",
+        "properties": {
+            "F": {"type": "number", "description": "[N] load"},
+            "F_std": {"type": "number", "description": "[N] its deviation"},
+            "label": {"type": "string"},
+        },
+    }
+    with open(path, "wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD)
+        w.start(profile="", library="test_analyzer")
+        schema_id = w.register_schema("Load", "jsonschema", json.dumps(schema).encode())
+        ids = {t: w.register_channel(t, "json", schema_id) for t in ("/truth", "/estimate", "/measurements")}
+        w.add_metadata("kalfmu", {"study": "json"})
+        for k, (t, a, b) in enumerate(zip(time, truth, estimate)):
+            ns = int(round(t * 1e9))
+            messages = {
+                "/truth": {"F": a, "label": "true"},
+                "/estimate": {"F": b, "F_std": STD, "label": "ekf"},
+                # json.dumps writes a NaN as the bare token NaN, which is not JSON.
+                "/measurements": {"F": float("nan") if k == 3 else a / 8},
+            }
+            for topic, message in messages.items():
+                w.add_message(ids[topic], log_time=ns, data=json.dumps(message).encode(), publish_time=ns, sequence=k)
+        w.finish()
+    rep = report(analyzer_bin, path, tmp_path)
+    assert rep["metadata"] == {"study": "json"}
+    [pair] = rep["pairs"]
+    assert (pair["truth"], pair["estimate"], pair["unit"], pair["samples"]) == ("F", "F", "N", len(time))
+    assert close(pair["rmse"], OFFSET)
+    assert close(pair["rmse"], rmse(estimate - truth))
+    assert close(pair["correlation"], 1.0)
+    assert pair["two_sigma_coverage"] == 1.0
+
+
+ROS2_SCHEMA = """\
+std_msgs/Header header
+float64 load  # [N] load on mass 2
+float64 load_std  # [N] its deviation
+float64[3] position
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+"""
+
+
+def test_a_ros2_bag_from_mcap_ros2_is_analysed_with_its_known_error(analyzer_bin, tmp_path):
+    """CDR messages with a ros2msg schema (a std_msgs/Header stamp, float64
+    fields, a fixed array), as `mcap_ros2.writer.Writer` writes a ROS 2 bag:
+    the header is not a signal, load pairs with load, σ from load_std (ROS 2
+    field names are lower case), and the report
+    measures RMSE = OFFSET; the array's elements are signals of their own,
+    paired by name too (position[i] exact: RMSE 0)."""
+    time, truth, estimate = known_error_samples()
+    path = tmp_path / "ros2.mcap"
+    with open(path, "wb") as f:
+        w = Ros2Writer(f)
+        schema = w.register_msgdef("kalfmu_msgs/msg/Load", ROS2_SCHEMA)
+        for k, (t, a, b) in enumerate(zip(time, truth, estimate)):
+            ns = int(round(t * 1e9))
+            # A stamp a second off log_time: the analyzer's time is log_time.
+            header = {"stamp": {"sec": int(t) + 1, "nanosec": ns % 1_000_000_000}, "frame_id": "base_link"}
+            position = [a, 2 * a, 3.0]
+            for topic, value, std in (("/truth", a, 0.0), ("/estimate", b, STD)):
+                message = {"header": header, "load": value, "load_std": std, "position": position}
+                w.write_message(topic, schema, message, log_time=ns, publish_time=ns, sequence=k)
+        w.finish()
+    rep = report(analyzer_bin, path, tmp_path)
+    pairs = {p["truth"]: p for p in rep["pairs"]}
+    # load_std is on /truth too here, and paired by name like any namesake signal.
+    assert set(pairs) == {"load", "load_std", "position[0]", "position[1]", "position[2]"}
+    pair = pairs["load"]
+    assert (pair["estimate"], pair["unit"], pair["samples"]) == ("load", "N", len(time))
+    assert close(pair["rmse"], OFFSET)
+    assert pair["two_sigma_coverage"] == 1.0
+    assert pairs["position[1]"]["rmse"] == 0.0
+
+
+def test_a_channel_in_an_encoding_the_analyzer_does_not_read_is_skipped_with_a_warning(analyzer_bin, tmp_path):
+    """A protobuf channel beside JSON truth and estimates: `analyzer report`
+    warns that it is skipped and why, then reports the others; as the only
+    data it is an error naming the file and the reason."""
+    time, truth, estimate = known_error_samples(n=50)
+    path = tmp_path / "with_protobuf.mcap"
+    only = tmp_path / "only_protobuf.mcap"
+    for target, with_json in ((path, True), (only, False)):
+        with open(target, "wb") as f:
+            w = Writer(f)
+            w.start(profile="", library="test_analyzer")
+            proto = w.register_channel("/imu", "protobuf", w.register_schema("pkg.Imu", "protobuf", b""))
+            if with_json:
+                schema_id = w.register_schema("Load", "jsonschema", b'{"type": "object"}')
+                ids = [w.register_channel(t, "json", schema_id) for t in ("/truth", "/estimate")]
+            for k, (t, a, b) in enumerate(zip(time, truth, estimate)):
+                ns = int(round(t * 1e9))
+                w.add_message(proto, log_time=ns, data=b"\x08\x01", publish_time=ns)
+                if with_json:
+                    w.add_message(ids[0], log_time=ns, data=json.dumps({"x": a}).encode(), publish_time=ns)
+                    w.add_message(ids[1], log_time=ns, data=json.dumps({"x": b}).encode(), publish_time=ns)
+            w.finish()
+    proc = subprocess.run([str(analyzer_bin), "report", str(path)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "warning: " in proc.stderr and "channel /imu is skipped: message encoding 'protobuf' is not read" in proc.stderr
+    proc = subprocess.run([str(analyzer_bin), "report", str(only)], capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert f"{only}: no channel can be read: /imu: message encoding 'protobuf' is not read" in proc.stderr

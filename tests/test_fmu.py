@@ -18,8 +18,8 @@ What is specified here for every FMU:
 
 For S1 (`kalfmu_s1_load.fmu`, FMI 2.0 Co-Simulation) in addition:
 
-- `fmpy.simulate_fmu` on the S1 input table (`scenarios s1-export`), as it
-  is, gives the estimates of the library run in-process (`scenarios replay`)
+- `fmpy.simulate_fmu` on the S1 input table (`kalfmu s1-export`), as it
+  is, gives the estimates of the library run in-process (`kalfmu replay`)
   at the time stamps fmpy records them, and those track the true load at
   their own time stamps;
 - step by step: reads after the inputs of t are the library's estimates at t
@@ -78,7 +78,7 @@ FMUTOOL = Path(sys.executable).with_name("fmutool")
 
 @dataclass(frozen=True)
 class S1Table:
-    """`scenarios s1-export`: row k is the plant's output at time[k] = k·dt."""
+    """`kalfmu s1-export`: row k is the plant's output at time[k] = k·dt."""
 
     time: np.ndarray
     z: np.ndarray  # (n, 2): z1_ddot, z2_ddot
@@ -98,11 +98,11 @@ def read_s1_table(path: Path) -> S1Table:
 
 
 @pytest.fixture(scope="module")
-def s1_table(scenarios_bin, tmp_path_factory) -> S1Table:
+def s1_table(kalfmu_bin, tmp_path_factory) -> S1Table:
     """The stiffness/random case of S1, 5 s at 200 Hz, seed 1, 2 % noise."""
     out = tmp_path_factory.mktemp("s1") / "s1.csv"
     subprocess.run(
-        [str(scenarios_bin), "s1-export", "--case", "stiffness/random", "--duration", str(DURATION)]
+        [str(kalfmu_bin), "s1-export", "--case", "stiffness/random", "--duration", str(DURATION)]
         + ["--seed", "1", "--noise", "0.02", "--out", str(out)],
         check=True,
     )
@@ -130,7 +130,7 @@ def unzipped(s1_fmu, tmp_path_factory) -> Path:
 
 
 # --------------------------------------------------------------------------
-# The reference: the library filter in-process (`scenarios replay`).
+# The reference: the library filter in-process (`kalfmu replay`).
 # --------------------------------------------------------------------------
 
 
@@ -164,10 +164,10 @@ def replay_spec(params: dict[str, float], measurements: np.ndarray, first_at_pri
     }
 
 
-def replay(scenarios_bin, params, measurements, first_at_prior: bool = True) -> dict:
+def replay(kalfmu_bin, params, measurements, first_at_prior: bool = True) -> dict:
     """The library's SRCKF: `means`/`std` after each update, `predicted_means`/
     `predicted_std` before it, `nis`."""
-    out = run_replay(scenarios_bin, replay_spec(params, measurements, first_at_prior), "SRCKF")
+    out = run_replay(kalfmu_bin, replay_spec(params, measurements, first_at_prior), "SRCKF")
     out["std"] = np.sqrt(np.einsum("kii->ki", out["covariances"]))
     out["predicted_means"] = np.array(out["predicted_means"], dtype=float)
     out["predicted_std"] = np.array(out["predicted_std"], dtype=float)
@@ -260,13 +260,13 @@ def simulated(s1_fmu, s1_table, model_description):
     return simulate_s1(s1_fmu, s1_table, model_description)
 
 
-def test_simulate_fmu_records_the_library_estimates_at_their_time_stamps(simulated, s1_table, defaults, scenarios_bin):
+def test_simulate_fmu_records_the_library_estimates_at_their_time_stamps(simulated, s1_table, defaults, kalfmu_bin):
     """fmpy records at t_0 the estimate given row 0 and at t_k the prediction
     from rows 0 … k-1: F, F_std and every state and std equal the library's
-    SRCKF (`scenarios replay`, same Q, R, prior, dt) there to 1e-12 relative."""
+    SRCKF (`kalfmu replay`, same Q, R, prior, dt) there to 1e-12 relative."""
     result, start = simulated
     np.testing.assert_allclose(result["time"], s1_table.time, rtol=0, atol=1e-12)
-    ref = as_read(replay(scenarios_bin, {**defaults, **start}, s1_table.z))
+    ref = as_read(replay(kalfmu_bin, {**defaults, **start}, s1_table.z))
     for i, name in enumerate(STATES):
         mean, std = result[name], result[f"{name}_std"]
         scale = np.max(np.abs(ref["means"][:, i]))
@@ -276,13 +276,13 @@ def test_simulate_fmu_records_the_library_estimates_at_their_time_stamps(simulat
 
 
 def test_with_the_same_damper_law_the_fmu_is_bit_identical_to_the_library(
-    s1_fmu, s1_table, model_description, defaults, scenarios_bin
+    s1_fmu, s1_table, model_description, defaults, kalfmu_bin
 ):
     """With the damper breakpoints out of reach (so the FMU's law rounds as the
     replay model's linear damper), every output equals the library's run bit
     for bit: the FMU layer adds nothing (same Q, R, prior, grid and inputs)."""
     result, start = simulate_s1(s1_fmu, s1_table, model_description, SAME_LAW)
-    ref = as_read(replay(scenarios_bin, {**defaults, **start}, s1_table.z))
+    ref = as_read(replay(kalfmu_bin, {**defaults, **start}, s1_table.z))
     for i, name in enumerate(STATES):
         assert np.array_equal(result[name], ref["means"][:, i]), name
         assert np.array_equal(result[f"{name}_std"], ref["std"][:, i]), name
@@ -294,7 +294,7 @@ def correlation_after(estimate, table: S1Table, t0: float = 1.0) -> float:
     return float(np.corrcoef(estimate[after], table.load[after])[0, 1])
 
 
-def test_the_outputs_after_each_step_track_the_load_at_their_own_time(simulated, s1_table, defaults, scenarios_bin):
+def test_the_outputs_after_each_step_track_the_load_at_their_own_time(simulated, s1_table, defaults, kalfmu_bin):
     """What fmpy records after each step is the estimate at the step's end,
     predicted one sample ahead: after the first second it correlates with the
     true load at the same time stamp at >= 0.998, clearly better than the
@@ -303,7 +303,7 @@ def test_the_outputs_after_each_step_track_the_load_at_their_own_time(simulated,
     communication point), with every sample used and the filter healthy."""
     result, start = simulated
     predicted = correlation_after(result["F"], s1_table)
-    ref = replay(scenarios_bin, {**defaults, **start}, s1_table.z)
+    ref = replay(kalfmu_bin, {**defaults, **start}, s1_table.z)
     one_late = correlation_after(np.concatenate([[np.nan], ref["means"][:-1, 2]]), s1_table)
     assert predicted >= 0.998
     assert 1.0 - predicted < 0.5 * (1.0 - one_late), (predicted, one_late)
@@ -313,7 +313,7 @@ def test_the_outputs_after_each_step_track_the_load_at_their_own_time(simulated,
 
 @pytest.mark.parametrize("interval", [0.001, 0.010])
 def test_communication_steps_of_1_and_10_ms_at_a_5_ms_sample_time(
-    interval, s1_fmu, s1_table, model_description, defaults, scenarios_bin
+    interval, s1_fmu, s1_table, model_description, defaults, kalfmu_bin
 ):
     """The rule for steps that are not the sample time. 1 ms: only every fifth
     communication point is a sample instant; there the outputs read after the
@@ -328,7 +328,7 @@ def test_communication_steps_of_1_and_10_ms_at_a_5_ms_sample_time(
     z = s1_table.z.copy()
     if interval > DT:
         z[1::2] = np.nan
-    ref = as_read(replay(scenarios_bin, {**defaults, **start}, z))
+    ref = as_read(replay(kalfmu_bin, {**defaults, **start}, z))
     for i, name in enumerate(STATES):
         assert np.array_equal(result[name][on_grid], ref["means"][rows, i]), name
         assert np.array_equal(result[f"{name}_std"][on_grid], ref["std"][rows, i]), name
@@ -538,7 +538,7 @@ def s4_positions(n: int, seed: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class S5Table:
-    """`scenarios s5-export`: row k is set at time[k] = k·dt."""
+    """`kalfmu s5-export`: row k is set at time[k] = k·dt."""
 
     time: np.ndarray
     input_names: list[str]  # the twelve measurements, then the three deflections
@@ -565,7 +565,7 @@ def case(request, fmu_dir, tmp_path_factory) -> Case:
     (stiffness/random); S2 with a vehicle at rest (the sensors' noise only,
     0.01 m/s²; a constant input would read as a stuck sensor); S4 with a train
     at 5 m/s and a marker every second (`s4_positions`); S5 with the
-    first 5 s of the study's flight (`scenarios s5-export`), whose start is
+    first 5 s of the study's flight (`kalfmu s5-export`), whose start is
     the FMU's default prior, and the same flight measured with other noise."""
     fmu = packaged(fmu_dir, FMUS[request.param])
     md = read_model_description(str(fmu))
@@ -574,11 +574,11 @@ def case(request, fmu_dir, tmp_path_factory) -> Case:
         table = request.getfixturevalue("s1_table")
         return Case(unzipped, md, table.z, -0.5 * table.z[300:], sensor(table))
     if request.param == "s5":
-        scenarios_bin = request.getfixturevalue("scenarios_bin")
+        kalfmu_bin = request.getfixturevalue("kalfmu_bin")
         tables = tmp_path_factory.mktemp("s5")
         for seed in (1, 2):
             subprocess.run(
-                [str(scenarios_bin), "s5-export", "--duration", str(DURATION), "--seed", str(seed)]
+                [str(kalfmu_bin), "s5-export", "--duration", str(DURATION), "--seed", str(seed)]
                 + ["--out", str(tables / f"seed{seed}.csv")],
                 check=True,
             )
@@ -935,7 +935,7 @@ def test_a_step_between_samples_warns_once_and_reads_the_prediction_to_its_end(c
 
 
 def test_with_nan_inputs_the_estimates_are_the_library_s_with_those_values_missing(
-    new_slave, s1_table, defaults, scenarios_bin
+    new_slave, s1_table, defaults, kalfmu_bin
 ):
     """The estimates of S1 with the gaps of `with_gaps` are the library's
     SRCKF with those values missing, bit for bit."""
@@ -943,13 +943,13 @@ def test_with_nan_inputs_the_estimates_are_the_library_s_with_those_values_missi
     slave = new_slave()
     slave.initialize(**sensor(s1_table), **SAME_LAW)
     out = np.array(slave.run(z))
-    ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, z)
+    ref = replay(kalfmu_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, z)
     for i, name in enumerate(STATES):
         assert np.array_equal(out[:, slave.real_outputs.index(slave.vr[name])], ref["means"][:, i]), name
 
 
 def test_reads_after_the_inputs_are_the_library_estimates_and_after_the_step_its_predictions(
-    new_slave, s1_table, defaults, scenarios_bin
+    new_slave, s1_table, defaults, kalfmu_bin
 ):
     """A master sets the plant's outputs of t, reads, steps, reads. The first
     read is the library's estimate at t given the measurements up to t (direct
@@ -959,7 +959,7 @@ def test_reads_after_the_inputs_are_the_library_estimates_and_after_the_step_its
     slave.initialize(**sensor(s1_table), **SAME_LAW)
     n = len(s1_table.time) - 1
     at, after = (np.array(rows) for rows in slave.run_both(s1_table.z[:n]))
-    ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, s1_table.z)
+    ref = replay(kalfmu_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, s1_table.z)
     column = {name: slave.real_outputs.index(slave.vr[name]) for name in STATES + [f"{s}_std" for s in STATES]}
     for i, name in enumerate(STATES):
         assert np.array_equal(at[:, column[name]], ref["means"][:n, i]), name
@@ -971,7 +971,7 @@ def test_reads_after_the_inputs_are_the_library_estimates_and_after_the_step_its
 
 
 def test_the_gauss_seidel_timing_takes_the_inputs_as_measured_at_the_step_end(
-    new_slave, s1_table, defaults, scenarios_bin
+    new_slave, s1_table, defaults, kalfmu_bin
 ):
     """input_timing = 2 (step_end): a master that hands over the plant's
     outputs of t + dt before fmi2DoStep(t, dt) reads after the step the
@@ -990,7 +990,7 @@ def test_the_gauss_seidel_timing_takes_the_inputs_as_measured_at_the_step_end(
         assert slave.outputs() == before
         slave.step()
         got.append(slave.outputs())
-    ref = replay(scenarios_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, s1_table.z[1:200], first_at_prior=False)
+    ref = replay(kalfmu_bin, {**defaults, **sensor(s1_table), **SAME_LAW}, s1_table.z[1:200], first_at_prior=False)
     got = np.array(got)
     for i, name in enumerate(STATES):
         assert np.array_equal(got[:, slave.real_outputs.index(slave.vr[name])], ref["means"][:, i]), name
@@ -1012,7 +1012,7 @@ def inject(table: S1Table, fault: str) -> tuple[np.ndarray, np.ndarray]:
             z[k, c] += sign * 100 * rms[c]
             bad[k, c] = True
     elif fault == "saturation":
-        # 2× the RMS: these 5 s never reach 3× (scenarios s1-faults clips 60 s at 3×).
+        # 2× the RMS: these 5 s never reach 3× (kalfmu s1-faults clips 60 s at 3×).
         limit = 2 * rms[0]
         bad[:, 0] = np.abs(z[:, 0]) > limit
         z[:, 0] = np.clip(z[:, 0], -limit, limit)
@@ -1065,7 +1065,7 @@ def test_gross_errors_are_flagged_and_the_load_stays_within_its_sigma(fault, new
     newly_rejected = np.diff(rejected, prepend=0) > 0
     # While the fault lasts, only corrupted samples are rejected. (After a
     # drift the input may stay out for a while: the state it pulled while left
-    # out comes back slowly; scenarios s1-faults measures it over 60 s.)
+    # out comes back slowly; kalfmu s1-faults measures it over 60 s.)
     during = np.arange(len(z)) <= np.max(np.nonzero(bad.any(axis=1))[0])
     assert not np.any(newly_rejected & ~bad.any(axis=1) & during), "a good sample rejected"
     if fault == "spikes":

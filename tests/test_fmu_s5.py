@@ -12,7 +12,7 @@ filters bit for bit; `fmu/tests/random_calls.rs` drives it with random call
 sequences; `scripts/valgrind-fmu` runs it under memcheck.
 
 Here: `fmpy.simulate_fmu` flies the first half of the study's flight
-(`scenarios s5-export`, 10 s before the coefficients change) through the FMU
+(`kalfmu s5-export`, 10 s before the coefficients change) through the FMU
 with its defaults and the sensors' noise set, as a user of fmpy would: the
 twelve measurements and the three deflections as one input table. It
 identifies every coefficient and stays healthy, and no sensor is flagged.
@@ -39,14 +39,14 @@ COEFFICIENTS = ["Cx0", "Cx_a", "Cx_b", "Cx_d", "Cy0", "Cy_a", "Cy_d", "Cz0", "Cz
 HALF = 9.995  # the last sample before the change at 10 s
 
 
-def test_the_first_half_of_the_flight_identifies_every_coefficient(s5_fmu, scenarios_bin, tmp_path):
+def test_the_first_half_of_the_flight_identifies_every_coefficient(s5_fmu, kalfmu_bin, tmp_path):
     """At the end of the first half every coefficient is within 1 % of the
     truth (0.001 absolute where |C| < 0.05, e.g. Cy0), inside 3σ of its
     estimate; every sample is taken, the filter stays healthy and no sensor is
     flagged faulty."""
     path = tmp_path / "s5.csv"
     subprocess.run(
-        [str(scenarios_bin), "s5-export", "--duration", str(HALF), "--seed", "1", "--out", str(path)], check=True
+        [str(kalfmu_bin), "s5-export", "--duration", str(HALF), "--seed", "1", "--out", str(path)], check=True
     )
     table = read_s5_table(path)
     dt = 0.005
@@ -81,7 +81,7 @@ def test_the_first_half_of_the_flight_identifies_every_coefficient(s5_fmu, scena
         assert error < 3 * std, (name, estimate, true, std)
 
 
-def test_sensors_told_a_thousand_times_too_fine_spend_the_budget_and_say_so(s5_fmu, scenarios_bin, tmp_path):
+def test_sensors_told_a_thousand_times_too_fine_spend_the_budget_and_say_so(s5_fmu, kalfmu_bin, tmp_path):
     """The r_<input>_std told a thousandth of the sensors' noise: no inflation
     of the covariance makes the filter agree with them. The default SVD-CKF
     re-acquires until max_inflation is spent, logs that once, and flies on
@@ -89,7 +89,7 @@ def test_sensors_told_a_thousand_times_too_fine_spend_the_budget_and_say_so(s5_f
     covariance's definiteness and says so: fmi2Discard with the reason, the
     outputs the last good estimate."""
     path = tmp_path / "s5.csv"
-    subprocess.run([str(scenarios_bin), "s5-export", "--duration", "2", "--out", str(path)], check=True)
+    subprocess.run([str(kalfmu_bin), "s5-export", "--duration", "2", "--out", str(path)], check=True)
     table = read_s5_table(path)
     md = read_model_description(str(s5_fmu))
     unzipped = Path(extract(str(s5_fmu), str(tmp_path / "unzipped")))

@@ -1,4 +1,4 @@
-"""`scenarios reproduce --study s2`: the main job's S2 table, through the packaged FMU.
+"""`kalfmu reproduce --study s2`: the main job's S2 table, through the packaged FMU.
 
 - It runs every filter on every case and prints, per wheelset, the SRCKF's figures beside
   the paper's, and per filter the worst wheel.
@@ -23,10 +23,10 @@ CASES = ["random", "corrugation", "weld"]
 
 
 @pytest.fixture(scope="module")
-def reproduced(scenarios_bin, fmu_dir, tmp_path_factory):
+def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce")
     proc = subprocess.run(
-        [str(scenarios_bin), "reproduce", "--study", "s2", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)],
+        [str(kalfmu_bin), "reproduce", "--study", "s2", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)],
         capture_output=True,
         text=True,
     )

@@ -1,4 +1,4 @@
-"""`scenarios reproduce --study s4 --quick`: S4's table through the packaged FMU.
+"""`kalfmu reproduce --study s4 --quick`: S4's table through the packaged FMU.
 
 - Every filter kind runs through the FMU and gives, to the last bit, what the same filter
   gives in-process on the same telegrams (position, speed, offsets, weights).
@@ -18,10 +18,10 @@ FILTERS = ["CKF", "SRCKF", "SVD-CKF", "UKF", "EKF"]
 
 
 @pytest.fixture(scope="module")
-def reproduced(scenarios_bin, fmu_dir, tmp_path_factory):
+def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce")
     proc = subprocess.run(
-        [str(scenarios_bin), "reproduce", "--study", "s4", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)],
+        [str(kalfmu_bin), "reproduce", "--study", "s4", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)],
         capture_output=True,
         text=True,
     )

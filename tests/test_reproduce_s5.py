@@ -1,4 +1,4 @@
-"""`scenarios reproduce --study s5`: the paper's Tables 1 and 2 through the packaged FMU.
+"""`kalfmu reproduce --study s5`: the paper's Tables 1 and 2 through the packaged FMU.
 
 - Every filter runs through the FMU and gives, to the last bit, what the same filter gives
   in-process on the same measurements and deflections.
@@ -22,10 +22,10 @@ NAMES = ["Cx0", "Cx_a", "Cx_b", "Cx_d", "Cy0", "Cy_a", "Cy_d", "Cz0", "Cz_b", "C
 
 
 @pytest.fixture(scope="module")
-def reproduced(scenarios_bin, fmu_dir, tmp_path_factory):
+def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce")
     proc = subprocess.run(
-        [str(scenarios_bin), "reproduce", "--study", "s5", "--fmu-dir", str(fmu_dir), "--out", str(out)]
+        [str(kalfmu_bin), "reproduce", "--study", "s5", "--fmu-dir", str(fmu_dir), "--out", str(out)]
         + ["--python", sys.executable],
         capture_output=True,
         text=True,

@@ -1,4 +1,4 @@
-"""Study S5's JSBSim truth (scenarios/s5_jsbsim/): the missile loads and flies, the
+"""Study S5's JSBSim truth (truth/s5_jsbsim/): the missile loads and flies, the
 coefficients change at 10 s, the axes and angles come out in the paper's conventions
 (docs/s5-missile.md), the measurements carry their stated noise, the log reads back, and
 JSBSim's flight is compared with the doc's equations (flat Earth) integrated by RK4."""
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "scenarios" / "s5_jsbsim"))
+sys.path.insert(0, str(ROOT / "truth" / "s5_jsbsim"))
 
 import crosscheck  # noqa: E402
 import fly  # noqa: E402
@@ -64,7 +64,7 @@ def test_the_missile_flies_20_s_without_nan(run):
 
 
 def test_the_manoeuvre_is_the_files(run):
-    """Read from scenarios/data/s5_manoeuvre.json, not copied: the sum of the segments
+    """Read from truth/data/s5_manoeuvre.json, not copied: the sum of the segments
     covering t, end-exclusive."""
     data = json.loads(fly.MANOEUVRE.read_text())
     assert run.time[-1] == pytest.approx(data["duration"])
@@ -397,7 +397,7 @@ def test_the_filter_set_is_the_filter_recorded(s1_fmu, value, kind):
 
 
 def test_the_command_line_records_the_filter_of_set(s5_fmu, tmp_path, capsys):
-    """As `scenarios reproduce --study s5` calls it: `--fmu <S5's> --set filter=N` logs
+    """As `kalfmu reproduce --study s5` calls it: `--fmu <S5's> --set filter=N` logs
     the run with `filter` the kind N names (not the FMU's default, SVD-CKF) and `fmu` the
     FMU's identifier."""
     labels = {}

@@ -4,7 +4,7 @@ Both sides run the same discrete model (tests/models.py re-implements the Rust
 models and the RK4 step operation for operation), the same simulated data
 (S1: 1000 accelerometer rows, every 97th fully missing; study S2's 24-state
 wheel-rail model: 300 rows at 1 kHz) and the same settings:
-`scenarios replay` on one side, filterpy's UnscentedKalmanFilter with
+`kalfmu replay` on one side, filterpy's UnscentedKalmanFilter with
 MerweScaledSigmaPoints(alpha, beta, kappa) on the other.
 
 Agreement is measured by `models.relative_differences` (filterpy = reference):
@@ -72,19 +72,19 @@ def assert_agree(out: dict, ref_means: np.ndarray, ref_covs: np.ndarray, what: s
     assert cov_rel <= TOL, f"{what}: covariances differ by {cov_rel:.3e} (relative) > {TOL}"
 
 
-def test_numpy_model_matches_the_rust_model_on_one_step(scenarios_bin):
+def test_numpy_model_matches_the_rust_model_on_one_step(kalfmu_bin):
     """The NumPy model and RK4 step are the Rust ones: one predict + update from
     a state on the kinked parts of k1, CKF against filterpy UKF(1, 0, 0), agrees
     to 1e-12 relative (mean entrywise; covariance against its largest entry)."""
     spec = dict(spec_for(STIFF), measurements=spec_for(STIFF)["measurements"][:1])
     spec["x0"] = [0.15, -0.05, 3.0, 0.2, -0.1, 1.0]
     means, covs, _ = run_filterpy(spec, 1.0, 0.0, 0.0)
-    out = run_replay(scenarios_bin, spec, "CKF")
+    out = run_replay(kalfmu_bin, spec, "CKF")
     assert np.max(np.abs(out["means"] - means) / np.abs(means)) <= 1e-12
     assert np.max(np.abs(out["covariances"] - covs)) <= 1e-12 * np.abs(covs).max()
 
 
-def test_numpy_wheel_rail_model_matches_the_rust_model_on_one_step(scenarios_bin):
+def test_numpy_wheel_rail_model_matches_the_rust_model_on_one_step(kalfmu_bin):
     """The NumPy wheel-rail model (Zhai's car) is the Rust one: one predict +
     update from a displaced, moving state (wheels 1 and 3 at -0.36 m/s against
     their bogie, past the primary dampers' knee; forces off the static load),
@@ -99,7 +99,7 @@ def test_numpy_wheel_rail_model_matches_the_rust_model_on_one_step(scenarios_bin
     x0[20:] += [5e3, -3e3, 2e3, 1e3]
     spec["x0"] = x0.tolist()
     means, covs, _ = run_filterpy(spec, 1.0, 0.0, 0.0)
-    out = run_replay(scenarios_bin, spec, "CKF")
+    out = run_replay(kalfmu_bin, spec, "CKF")
     assert np.max(np.abs(out["means"] - means) / np.abs(means)) <= 1e-12
     assert relative_differences(out["means"], out["covariances"], means, covs)[1] <= 1e-10
 
@@ -115,27 +115,27 @@ def test_numpy_wheel_rail_model_matches_the_rust_model_on_one_step(scenarios_bin
     ],
     ids=lambda v: v if isinstance(v, str) else "alpha={}-beta={}-kappa={}".format(*v),
 )
-def test_ukf_matches_filterpy_ukf_with_the_same_parameters(scenarios_bin, model, abk):
+def test_ukf_matches_filterpy_ukf_with_the_same_parameters(kalfmu_bin, model, abk):
     """Our UKF(alpha, beta, kappa) reproduces filterpy's UKF with
     MerweScaledSigmaPoints(alpha, beta, kappa): means and covariances agree to
     TOL (formula in the module docstring) over 1000 steps of S1."""
     ref_means, ref_covs = filterpy_run(model, abk)
-    out = run_replay(scenarios_bin, spec_for(model), "UKF", ukf=abk)
+    out = run_replay(kalfmu_bin, spec_for(model), "UKF", ukf=abk)
     assert out["filter"] == "UKF" and out["means"].shape == ref_means.shape
     assert_agree(out, ref_means, ref_covs, f"UKF{abk} on {model}")
 
 
 @pytest.mark.parametrize("filter_name", ["CKF", "SRCKF"])
-def test_cubature_filters_match_filterpy_ukf_1_0_0(scenarios_bin, filter_name):
+def test_cubature_filters_match_filterpy_ukf_1_0_0(kalfmu_bin, filter_name):
     """The cubature rule is the unscented transform with alpha = 1, beta = 0,
     kappa = 0 (the centre point has weight 0): our CKF and SRCKF reproduce
     filterpy's UKF(1, 0, 0) to TOL over 1000 steps of S1."""
     ref_means, ref_covs = filterpy_run(STIFF, (1.0, 0.0, 0.0))
-    out = run_replay(scenarios_bin, spec_for(STIFF), filter_name)
+    out = run_replay(kalfmu_bin, spec_for(STIFF), filter_name)
     assert_agree(out, ref_means, ref_covs, f"{filter_name} vs filterpy UKF(1,0,0)")
 
 
-def test_cubature_filters_match_filterpy_on_the_24_state_wheel_rail_model(scenarios_bin):
+def test_cubature_filters_match_filterpy_on_the_24_state_wheel_rail_model(kalfmu_bin):
     """On study S2's 24-state wheel-rail model (Zhai's car, 7 accelerometers,
     the 4 wheel-rail forces about the 55.9 kN static load unknown), our CKF,
     SRCKF and UKF(1, 0, 0) reproduce filterpy's UKF(1, 0, 0) to TOL over 300
@@ -146,7 +146,7 @@ def test_cubature_filters_match_filterpy_on_the_24_state_wheel_rail_model(scenar
     spec = wheel_rail()
     ref_means, ref_covs, _ = run_filterpy(spec, 1.0, 0.0, 0.0)
     for name, ukf in [("CKF", None), ("SRCKF", None), ("UKF", (1.0, 0.0, 0.0))]:
-        out = run_replay(scenarios_bin, spec, name, ukf=ukf)
+        out = run_replay(kalfmu_bin, spec, name, ukf=ukf)
         assert (out["model"], out["n"], out["m"]) == ("wheel_rail_vertical_24", 24, 7)
         assert_agree(out, ref_means, ref_covs, f"{name} on the wheel-rail model")
 
@@ -156,7 +156,7 @@ def test_cubature_filters_match_filterpy_on_the_24_state_wheel_rail_model(scenar
     [(STIFF, (0.5, 2.0, 0.0)), (STIFF, (1e-3, 2.0, 0.0)), (DAMP, (1e-3, 2.0, 0.0))],
     ids=lambda v: v if isinstance(v, str) else "alpha={}-beta={}-kappa={}".format(*v),
 )
-def test_ill_conditioned_settings_depart_from_filterpy_no_more_than_filterpy_from_itself(scenarios_bin, model, abk):
+def test_ill_conditioned_settings_depart_from_filterpy_no_more_than_filterpy_from_itself(kalfmu_bin, model, abk):
     """For these settings the estimate is ill-conditioned in the data: filterpy
     run on the measurements moved by one ulp (two seeded draws) departs from
     filterpy by d_self > TOL. Our UKF must then depart from filterpy by at most
@@ -168,31 +168,31 @@ def test_ill_conditioned_settings_depart_from_filterpy_no_more_than_filterpy_fro
         means, covs, _ = run_filterpy(one_ulp_off(spec_for(model), seed), *abk)
         self_diffs.append(relative_differences(means, covs, ref_means, ref_covs))
     d_self = np.max(np.array(self_diffs), axis=0)
-    out = run_replay(scenarios_bin, spec_for(model), "UKF", ukf=abk)
+    out = run_replay(kalfmu_bin, spec_for(model), "UKF", ukf=abk)
     d_ours = np.array(relative_differences(out["means"], out["covariances"], ref_means, ref_covs))
     print(f"UKF{abk} on {model}: ours vs filterpy {d_ours}, filterpy vs itself (1 ulp) {d_self}")
     assert max(d_self) > TOL, "this case is well conditioned: test it with the strict tolerance"
     assert np.all(d_ours <= 20.0 * d_self), f"ours {d_ours} vs filterpy's own sensitivity {d_self}"
 
 
-def test_a_filter_failure_exits_non_zero_naming_the_step_and_time(scenarios_bin, tmp_path):
-    """`scenarios replay` stops on a filter error with a non-zero exit and a
+def test_a_filter_failure_exits_non_zero_naming_the_step_and_time(kalfmu_bin, tmp_path):
+    """`kalfmu replay` stops on a filter error with a non-zero exit and a
     message naming the step, its time and the error (P0 = 0: no Cholesky factor)."""
     spec = dict(spec_for(STIFF), filter="CKF", p0=[0.0] * 6)
     path = tmp_path / "spec.json"
     path.write_text(json.dumps(spec))
-    proc = subprocess.run([str(scenarios_bin), "replay", "--input", str(path)], capture_output=True, text=True)
+    proc = subprocess.run([str(kalfmu_bin), "replay", "--input", str(path)], capture_output=True, text=True)
     assert proc.returncode != 0
     assert "step 0 (t = 0.005 s): predict failed" in proc.stderr
     assert "state covariance P is not positive definite" in proc.stderr
 
 
-def test_replay_reads_stdin_and_writes_stdout_with_one_estimate_per_row(scenarios_bin):
+def test_replay_reads_stdin_and_writes_stdout_with_one_estimate_per_row(kalfmu_bin):
     """Without --input/--output the spec comes from stdin and the results go to
     stdout; missing rows are reported as rows_used = 0 with NIS 0."""
     spec = dict(spec_for(STIFF), filter="SRCKF", measurements=spec_for(STIFF)["measurements"][:100])
     proc = subprocess.run(
-        [str(scenarios_bin), "replay"], input=json.dumps(spec), capture_output=True, text=True, check=True
+        [str(kalfmu_bin), "replay"], input=json.dumps(spec), capture_output=True, text=True, check=True
     )
     out = json.loads(proc.stdout)
     assert (out["filter"], out["n"], out["m"], len(out["means"])) == ("SRCKF", 6, 2, 100)

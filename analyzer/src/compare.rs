@@ -11,11 +11,11 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use log_format::read::Run;
+use log_format::LogError;
+use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::error::LogError;
-use crate::parallel;
-use crate::read::Run;
 use crate::report::{analyse, Options, PairReport, Report};
 
 /// The metadata keys that say which case a run is.
@@ -194,7 +194,7 @@ pub fn compare_runs<'a>(runs: &'a [Run], options: &Options) -> Result<Comparison
     let Some(first) = runs.first() else {
         return Err(LogError::Analysis { file: "".into(), what: "no log to compare".into() });
     };
-    let reports = parallel::map(runs, |run| analyse(run, options)).into_iter().collect::<Result<Vec<_>, _>>()?;
+    let reports = runs.par_iter().map(|run| analyse(run, options)).collect::<Result<Vec<_>, _>>()?;
     for (run, report) in runs.iter().zip(&reports).skip(1) {
         check_shared_truth(first, &reports[0], run, report)?;
     }

@@ -1,10 +1,11 @@
 //! The kalfmu analyzer: reads MCAP logs of co-simulation runs (measurements,
-//! truth, estimates), computes the comparison metrics of the studies, and
-//! writes Rerun recordings for review. It depends on the log format only,
-//! never on the estimators.
+//! truth, estimates) through the `log-format` crate, computes the comparison metrics
+//! of the studies, and writes Rerun recordings for review. It depends on the log
+//! format only, never on the estimators.
 //!
 //! ```no_run
-//! use analyzer::{compare::compare_runs, read::read_log, report::Options};
+//! use analyzer::{compare::compare_runs, report::Options};
+//! use log_format::read::read_log;
 //! let runs = [read_log("ckf.mcap".as_ref()).unwrap(), read_log("ukf.mcap".as_ref()).unwrap()];
 //! let comparison = compare_runs(&runs, &Options::default()).unwrap();
 //! print!("{}", comparison.table());
@@ -12,14 +13,7 @@
 //! ```
 
 pub mod compare;
-pub mod container;
-pub mod error;
-pub mod log;
 pub mod metrics;
-pub mod parallel;
 pub mod psd;
-pub mod read;
 pub mod report;
 pub mod rrd;
-
-pub use error::LogError;

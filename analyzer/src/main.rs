@@ -11,11 +11,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use analyzer::compare::compare_runs;
-use analyzer::parallel;
-use analyzer::read::{read_log, Run};
 use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
 use clap::{Parser, Subcommand};
+use log_format::read::read_log;
+use log_format::LogError;
+use rayon::prelude::*;
 
 #[derive(Debug, Parser)]
 #[command(name = "analyzer", version, about = "Metrics and recordings from kalfmu MCAP logs")]
@@ -53,7 +54,7 @@ struct ReportArgs {
     #[arg(long, default_value_t = 1024)]
     psd_segment: usize,
     /// The channel of the estimates (e.g. /prediction: an FMU's outputs read right after each step).
-    #[arg(long, default_value = analyzer::log::ESTIMATE)]
+    #[arg(long, default_value = log_format::write::ESTIMATE)]
     estimate_topic: String,
     /// Take the metrics, the ±2σ coverage and the spectra from this time (s) on, leaving a
     /// filter's start-up out; the recording still shows the whole run.
@@ -79,11 +80,11 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: &Cli) -> Result<(), analyzer::LogError> {
+fn run(cli: &Cli) -> Result<(), LogError> {
     match &cli.command {
         Command::Report(args) => {
-            let runs = parallel::map(&args.logs, |log| read_log(log)).into_iter().collect::<Result<Vec<_>, _>>()?;
-            for warning in runs.iter().filter_map(Run::recovery_warning) {
+            let runs = args.logs.par_iter().map(|log| read_log(log)).collect::<Result<Vec<_>, _>>()?;
+            for warning in runs.iter().flat_map(|run| run.skip_warnings().into_iter().chain(run.recovery_warning())) {
                 eprintln!("warning: {warning}");
             }
             let options = Options {

@@ -15,11 +15,11 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::error::LogError;
-use crate::log::{ESTIMATE, TRUTH};
 use crate::metrics::{compare_with_running_rmse, running_rmse, Metrics};
 use crate::psd::{agreement_band, welch_pair, Spectrum};
-use crate::read::Run;
+use log_format::read::Run;
+use log_format::write::{ESTIMATE, TRUTH};
+use log_format::LogError;
 
 /// How to analyse.
 #[derive(Debug, Clone, PartialEq)]

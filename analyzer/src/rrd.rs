@@ -45,11 +45,11 @@ use rerun::{
 };
 
 use crate::compare::{pair_name, Comparison, COLUMNS};
-use crate::error::LogError;
-use crate::log::{SignalSpec, MEASUREMENTS};
 use crate::psd::Spectrum;
-use crate::read::{Run, Signal};
 use crate::report::PairReport;
+use log_format::read::{Run, Signal};
+use log_format::write::{SignalSpec, MEASUREMENTS};
+use log_format::LogError;
 
 /// Application id of the recordings.
 pub const APPLICATION_ID: &str = "kalfmu";

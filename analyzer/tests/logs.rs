@@ -4,10 +4,10 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
-use analyzer::read::read_log;
 use analyzer::report::{analyse, Options};
-use analyzer::LogError;
+use log_format::read::read_log;
+use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
+use log_format::LogError;
 
 fn temp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("kalfmu-analyzer-{}", std::process::id()));
@@ -167,18 +167,41 @@ fn a_missing_channel_is_named_with_the_channels_present() {
     assert!(err.contains("channel /truth is missing (the log has: /estimate)"), "{err}");
 }
 
+/// A log another tool wrote: JSON truth and estimates (estimate = truth + 0.5) beside a
+/// channel in an encoding the reader does not know, which is skipped with a warning.
 #[test]
-fn a_channel_in_another_encoding_is_named() {
-    let path = temp("cdr.mcap");
+fn json_channels_are_analysed_and_a_channel_in_an_unknown_encoding_is_skipped_with_a_warning() {
+    let path = temp("json_and_protobuf.mcap");
     let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
     let mut w = mcap::WriteOptions::new().create(file).unwrap();
-    let schema = w.add_schema("x", "ros2msg", b"float64 F").unwrap();
-    let channel = w.add_channel(schema, TRUTH, "cdr", &BTreeMap::new()).unwrap();
-    let header = mcap::records::MessageHeader { channel_id: channel, sequence: 0, log_time: 0, publish_time: 0 };
-    w.write_to_known_channel(&header, &[0u8; 8]).unwrap();
+    let schema = w.add_schema("Load", "jsonschema", br#"{"type": "object", "properties": {"F": {"type": "number"}}}"#);
+    let schema = schema.unwrap();
+    let truth = w.add_channel(schema, TRUTH, "json", &BTreeMap::new()).unwrap();
+    let estimate = w.add_channel(schema, ESTIMATE, "json", &BTreeMap::new()).unwrap();
+    let other = w.add_schema("pkg.Imu", "protobuf", b"").unwrap();
+    let imu = w.add_channel(other, "/imu", "protobuf", &BTreeMap::new()).unwrap();
+    for k in 0..500u64 {
+        let header = |channel_id| mcap::records::MessageHeader {
+            channel_id,
+            sequence: k as u32,
+            log_time: k * 10_000_000,
+            publish_time: k * 10_000_000,
+        };
+        let f = (k as f64 * 0.05).sin();
+        w.write_to_known_channel(&header(truth), format!(r#"{{"F": {f}}}"#).as_bytes()).unwrap();
+        w.write_to_known_channel(&header(estimate), format!(r#"{{"F": {}}}"#, f + 0.5).as_bytes()).unwrap();
+        w.write_to_known_channel(&header(imu), &[8, 1]).unwrap();
+    }
     w.finish().unwrap();
-    let err = read_log(&path).unwrap_err().to_string();
-    assert!(err.contains("channel /truth: message encoding is 'cdr', not ros1"), "{err}");
+    let run = read_log(&path).unwrap();
+    assert_eq!(run.skipped.iter().map(|s| s.topic.as_str()).collect::<Vec<_>>(), ["/imu"]);
+    let report = analyse(&run, &Options::default()).unwrap();
+    assert_eq!((report.pairs[0].truth.as_str(), report.pairs[0].samples), ("F", 500));
+    assert!((report.pairs[0].metrics.rmse - 0.5).abs() < 1e-12, "{}", report.pairs[0].metrics.rmse);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_analyzer")).arg("report").arg(&path).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("channel /imu is skipped: message encoding 'protobuf' is not read"), "{stderr}");
 }
 
 #[test]

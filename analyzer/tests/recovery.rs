@@ -6,10 +6,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
-use analyzer::read::{read_log, Run};
 use analyzer::report::{analyse, Options};
-use analyzer::LogError;
+use log_format::read::{read_log, Run};
+use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
+use log_format::LogError;
 
 fn temp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("kalfmu-analyzer-recovery-{}", std::process::id()));

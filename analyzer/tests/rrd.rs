@@ -5,10 +5,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use analyzer::compare::{compare_runs, Comparison};
-use analyzer::log::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
-use analyzer::read::{read_log, Run};
 use analyzer::report::Options;
 use analyzer::rrd::{envelope_bucket, write_rrd, MAX_ROWS, TIMELINE};
+use log_format::read::{read_log, Run};
+use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, TRUTH};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::external::re_sdk_types::blueprint::archetypes::{ViewBlueprint, ViewContents};
 use rerun::log::{Chunk, LogMsg};

@@ -247,7 +247,7 @@ fn s1() -> Case<Discretized<Oscillator2DofLoad>> {
 
 /// Study S2: the half vehicle on one rail (Zhai's passenger car), the four wheel–rail
 /// forces as random walks, seven accelerometers; the study's tuning
-/// (`scenarios/src/s2/study.rs`).
+/// (`studies/src/s2/study.rs`).
 fn wheel_rail() -> Case<Discretized<WheelRailVertical>> {
     let vehicle = VerticalVehicle::zhai_passenger();
     let model = Discretized::rk4(WheelRailVertical { vehicle }, 1);
@@ -304,7 +304,7 @@ impl Observation for MissileWithFins {
 }
 
 /// Study S5: the missile from the study's start with its coefficients of Table 1, the
-/// filter with the study's tuning (`scenarios/src/s5/study.rs`, `Tuning::new(1.0)`: the
+/// filter with the study's tuning (`studies/src/s5/study.rs`, `Tuning::new(1.0)`: the
 /// coefficients' prior 20 % off with a σ of 30 %).
 fn missile() -> Case<Discretized<MissileWithFins>> {
     let model = Discretized::rk4(MissileWithFins(Missile6Dof { airframe: Airframe::tactical_missile() }), 1);

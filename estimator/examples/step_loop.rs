@@ -64,7 +64,7 @@ fn main() {
         z.extend(y.iter().map(|v| v + 0.05 * rng.sample::<f64, _>(StandardNormal)));
     }
 
-    // The study's tuning (scenarios/src/s2/study.rs, `Tuning`): motion noise 1e-8 (car body,
+    // The study's tuning (studies/src/s2/study.rs, `Tuning`): motion noise 1e-8 (car body,
     // bogies) and 1e-10 (wheelsets) per sample, force intensity 1e13 N²/s, prior 1e-2
     // about the static load.
     let motion: Vec<f64> = [1e-8; 6].into_iter().chain([1e-10; 4]).collect();

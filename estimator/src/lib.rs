@@ -11,6 +11,14 @@
 //!
 //! This crate does no I/O: no files, no logging, no FFI.
 //!
+//! A step runs its dense kernels with AVX2 and FMA where the CPU has them,
+//! and portable loops otherwise (the two agree to rounding, not bit for bit).
+//! The portable path can be forced, to test on an x86-64 machine what a CPU
+//! without AVX2 runs: for the process with the environment variable
+//! `KALFMU_PORTABLE=1` ([`PORTABLE_VARIABLE`], read once), or for one thread
+//! and one closure with [`with_portable_kernels`]; [`kernels_in_use`] says
+//! which path a step takes, [`kernels_available`] what the CPU offers.
+//!
 //! ```
 //! use estimator::models::{Oscillator2Dof, Oscillator2DofLoad};
 //! use estimator::{Discretized, Gaussian, Noise, SquareRootCubature, StateEstimator};
@@ -37,6 +45,7 @@ mod linalg;
 mod model;
 mod noise;
 mod points;
+mod supervised;
 mod supervisor;
 
 pub mod fusion;
@@ -45,13 +54,17 @@ pub mod models;
 pub use adaptive_noise::SageHusa;
 pub use error::{FilterError, Stage};
 pub use filter::{
-    build_filter, CholeskyRoot, CovarianceRoot, CubatureKalman, ExtendedKalman, FilterKind, Innovation,
-    SigmaPointKalman, Snapshot, SquareRootCubature, StateEstimator, SvdCubature, SvdRoot, UnscentedKalman,
+    build_filter, CholeskyRoot, CovarianceRoot, CubatureKalman, CubaturePoints, ExtendedKalman, FilterKind, Innovation,
+    PointRule, SigmaPointKalman, Snapshot, SquareRootCubature, StateEstimator, SvdCubature, SvdRoot, UnscentedKalman,
+    UnscentedPoints,
 };
 pub use gaussian::Gaussian;
 pub use integrate::{Discretized, Rk4};
-pub use linalg::SymmetricEigen;
+pub use linalg::{
+    kernels_available, kernels_in_use, with_portable_kernels, Kernels, SymmetricEigen, PORTABLE_VARIABLE,
+};
 pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
+pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};
 pub use supervisor::{Channel, FaultChange, Outcome, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings};

@@ -179,3 +179,35 @@ fn filters_report_their_kind() {
         &[FilterKind::Ckf, FilterKind::SrCkf, FilterKind::SvdCkf, FilterKind::Ekf, FilterKind::Ukf]
     );
 }
+
+/// The same properties on the portable kernels, what a CPU without AVX2 and
+/// FMA runs (there, and under `KALFMU_PORTABLE=1`, the tests above run them
+/// already; `portable.rs` compares the two paths with each other).
+mod on_the_portable_kernels {
+    use estimator::with_portable_kernels;
+
+    #[test]
+    fn every_filter_equals_the_textbook_kalman_filter_on_a_linear_gaussian_model() {
+        with_portable_kernels(super::every_filter_equals_the_textbook_kalman_filter_on_a_linear_gaussian_model);
+    }
+
+    #[test]
+    fn missing_rows_are_left_out_exactly_as_a_kalman_filter_on_the_remaining_rows() {
+        with_portable_kernels(super::missing_rows_are_left_out_exactly_as_a_kalman_filter_on_the_remaining_rows);
+    }
+
+    #[test]
+    fn ckf_srckf_and_ukf_alpha1_beta0_kappa0_agree_on_the_nonlinear_s1_model() {
+        with_portable_kernels(super::ckf_srckf_and_ukf_alpha1_beta0_kappa0_agree_on_the_nonlinear_s1_model);
+    }
+
+    #[test]
+    fn svd_ckf_equals_the_ckf_while_the_s1_model_stays_on_one_linear_piece() {
+        with_portable_kernels(super::svd_ckf_equals_the_ckf_while_the_s1_model_stays_on_one_linear_piece);
+    }
+
+    #[test]
+    fn svd_ckf_identifies_the_load_as_well_as_the_ckf_across_the_breakpoints() {
+        with_portable_kernels(super::svd_ckf_identifies_the_load_as_well_as_the_ckf_across_the_breakpoints);
+    }
+}

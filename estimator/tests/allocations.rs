@@ -186,3 +186,14 @@ fn no_filter_allocates_per_step_on_the_wheel_rail_model() {
         assert_no_allocation_per_step(filter, &zs, 0.001);
     }
 }
+
+/// The portable kernels (a CPU without AVX2, or the switch forcing them)
+/// allocate nothing per step either.
+#[test]
+fn no_filter_allocates_per_step_on_the_portable_kernels() {
+    estimator::with_portable_kernels(|| {
+        no_filter_allocates_per_step_on_the_s1_model();
+        no_filter_allocates_per_step_on_the_wheel_rail_model();
+        the_supervisor_allocates_nothing_per_sample();
+    });
+}

@@ -161,7 +161,7 @@ fn re_acquisitions_stop_at_their_inflation_budget_when_the_sensors_are_far_noisi
     // without a budget the filter re-acquires every reacquire_after samples,
     // multiplying P by up to 1e4 each time (here every direction is observed
     // and P collapses again; S5's coefficients are not, and there P overflows
-    // or loses its definiteness: scenarios/tests/s5_study.rs). With the
+    // or loses its definiteness: studies/tests/s5_study.rs). With the
     // default budget (1e8) it stops after two re-acquisitions, P stays finite
     // and the filter reports itself unhealthy; a sample that passes the gate
     // whole gives the budget back.

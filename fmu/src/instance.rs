@@ -9,12 +9,12 @@
 
 use std::ffi::CString;
 
-use estimator::{StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
+use estimator::{Event, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
 
 use crate::estimators::{self, Descriptor, MAX_DERIVED};
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
 use crate::state::ModelState;
-use crate::timing::{Estimation, Event, InputTiming, Reading};
+use crate::timing::{Estimation, InputTiming, Reading};
 use crate::variables::{Causality, Parameters, Role, Variability};
 
 /// The log categories of `<LogCategories>`.
@@ -569,5 +569,5 @@ pub(crate) fn build_estimation(
             controls.len()
         ));
     }
-    Ok(Estimation::new(filter, reader, start_time, sample_time, timing, supervisor, controls))
+    Estimation::new(filter, reader, start_time, sample_time, timing, supervisor, controls).map_err(|e| e.to_string())
 }

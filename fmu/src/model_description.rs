@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 
 use crate::estimators::Descriptor;
 use crate::instance::LOG_CATEGORIES;
-use crate::variables::{Causality, Kind, Variability, Variable, UNITS};
+use crate::variables::{Causality, Kind, Role, Variability, Variable, UNITS};
 
 /// The `modelDescription.xml` of an estimator FMU.
 pub fn model_description(d: &Descriptor) -> String {
@@ -159,11 +159,13 @@ fn esc(s: &str) -> String {
 }
 
 /// How the FMU treats time, for `documentation/index.html` (the rules of `timing.rs`).
+/// A `{name}` is the variable `name` with its default (see [`documentation`]).
 const TIMING: &str = concat!(
-    "<p>The filter runs one predict + update per <code>sample_time</code> on the grid t<sub>k</sub> = start + ",
-    "k·sample_time (counted, never accumulated). With the default <code>input_timing</code> = 1 ",
-    "(<code>communication_point</code>), an input set at communication point t is the measurement at t, as FMI ",
-    "defines it: a master sets the plant's outputs of t, calls fmi2DoStep(t, h), and reads our outputs.</p>\n",
+    "<p>The filter runs one predict + update per {sample_time} on the grid t<sub>k</sub> = start + ",
+    "k·sample_time (counted, never accumulated). The parameter {input_timing} says when the inputs set before ",
+    "fmi2DoStep(t, h) were measured. With 1 (<code>communication_point</code>), an input set at communication ",
+    "point t is the measurement at t, as FMI defines it: a master sets the plant's outputs of t, calls ",
+    "fmi2DoStep(t, h), and reads our outputs.</p>\n",
     "<pre>\n",
     " master:  set u(t)    get y        fmi2DoStep(t, h)          get y         set u(t+h)    get y\n",
     " FMU:               x̂(t | t)     update at t with u(t),    x̂(t+h | t)                  x̂(t+h | t+h)\n",
@@ -193,7 +195,7 @@ const TIMING: &str = concat!(
 );
 
 /// How controls are timed, for the `documentation/index.html` of an FMU with controls
-/// (rules 5–8 of `timing.rs`).
+/// (rules 5–8 of `timing.rs`); [`documentation`] appends the controls' start values.
 const CONTROLS_TIMING: &str = concat!(
     "<p><b>Controls.</b> The control inputs are known inputs of the model (e.g. rudder deflections), not ",
     "measurements. They are held, as a control computer outputs them: the controls of time τ are in force from τ ",
@@ -207,44 +209,173 @@ const CONTROLS_TIMING: &str = concat!(
     "<li>With <code>input_timing</code> = 2 (<code>step_end</code>) everything set before fmi2DoStep(t, h) is of ",
     "t + h, the controls too: they enter the update at t + h and the predictions from t + h on (at the next ",
     "step); the predictions inside the step use the controls of t, set before the previous step (at the first ",
-    "step: those standing at fmi2ExitInitializationMode, set in initialisation mode, or 0).</li>\n",
+    "step: those standing at fmi2ExitInitializationMode, set in initialisation mode, or their start values).</li>\n",
+    "<li>The controls in force are part of the FMU state, which restores them bit for bit.</li>\n",
     "<li>A control is never missing: fmi2SetReal refuses a NaN or infinite control with fmi2Error and changes ",
-    "nothing. A control never set is its start value, 0.</li>\n",
-    "<li>The controls in force are part of the FMU state, which restores them bit for bit.</li>\n</ul>\n",
+    "nothing. A control never set is its start value: ",
 );
 
 /// Gross errors and the health flags, for `documentation/index.html` (`estimator::Supervisor`).
+/// `{gate_sigmas}` says how wide the default gate is (see [`documentation`]).
 const SUPERVISION: &str = concat!(
     "<p>Every update goes through a supervisor (estimator/src/supervisor.rs):</p>\n<ul>\n",
     "<li><b>Gate.</b> A measurement row whose normalised innovation ν²/S exceeds the χ²(1) quantile of ",
-    "<code>gate_probability</code> (default 1 − 1e-6, about 4.9σ) is left out of that update, exactly as a missing ",
-    "one, and counted in <code>rejected_measurements</code>; so is the worst row when the rows kept fail together. ",
-    "<code>gate_probability</code> = 1 turns the gate off.</li>\n",
-    "<li><b>Stuck.</b> An input that repeats its value bit for bit <code>stuck_after</code> times (default 5) is left ",
-    "out until it changes: a live sensor has noise.</li>\n",
-    "<li><b><code>&lt;input&gt;_fault</code></b> is true while the input's last <code>fault_after</code> samples ",
-    "(default 3) were all rejected, stuck or missing, and false again at the first sample it passes. Each change is ",
-    "logged once, with the input and the time.</li>\n",
-    "<li><b>Re-acquisition.</b> An input failing the gate <code>reacquire_after</code> samples in a row (default 10) ",
-    "makes the filter inflate its covariance and update with every input, so that the gate cannot lock it out of a ",
-    "true change (a load step); if that input fails again within <code>consistency_window</code> samples it was the ",
-    "sensor, and it triggers no more until it passes. Every input failing <code>reacquire_after</code> samples in a ",
-    "row re-acquires regardless. Each re-acquisition is logged. Together they multiply the covariance by at most ",
-    "<code>max_inflation</code> (default 1e8) until a sample passes the gate with no input rejected: a filter whose ",
-    "sensors are far noisier than their <code>r_&lt;input&gt;_std</code> says cannot be brought to agree with them, ",
-    "and further inflation would only drive its covariance to overflow. It then updates with the inputs that pass ",
-    "the gate and predicts only while none does (unhealthy); the spent budget is logged once.</li>\n",
+    "{gate_probability} is left out of that update, exactly as a missing one, and counted in ",
+    "<code>rejected_measurements</code>; so is the worst row when the rows kept fail together. ",
+    "<code>gate_probability</code> = 1 turns the gate off{gate_sigmas}.</li>\n",
+    "<li><b>Stuck.</b> An input that repeats its value bit for bit {stuck_after} times is left out until it ",
+    "changes: a live sensor has noise.</li>\n",
+    "<li><b><code>&lt;input&gt;_fault</code></b> is true while the input's last {fault_after} samples were all ",
+    "rejected, stuck or missing, and false again at the first sample it passes. Each change is logged once, with ",
+    "the input and the time.</li>\n",
+    "<li><b>Re-acquisition.</b> An input failing the gate {reacquire_after} samples in a row makes the filter ",
+    "inflate its covariance and update with every input, so that the gate cannot lock it out of a true change (a ",
+    "load step); if that input fails again within {consistency_window} samples it was the sensor, and it triggers ",
+    "no more until it passes. Every input failing <code>reacquire_after</code> samples in a row re-acquires ",
+    "regardless. Each re-acquisition is logged. Together they multiply the covariance by at most {max_inflation} ",
+    "until a sample passes the gate with no input rejected: a filter whose sensors are far noisier than their ",
+    "<code>r_&lt;input&gt;_std</code> says cannot be brought to agree with them, and further inflation would only ",
+    "drive its covariance to overflow. It then updates with the inputs that pass the gate and predicts only while ",
+    "none does (unhealthy); the spent budget is logged once.</li>\n",
     "<li><b><code>filter_healthy</code></b> is false while the filter is inconsistent (the normalised innovations of ",
-    "the last <code>consistency_window</code> samples, each clipped at the gate, exceed <code>consistency_margin</code> ",
+    "the last <code>consistency_window</code> samples, each clipped at the gate, exceed {consistency_margin} ",
     "times their χ² bound: its σ no longer covers the errors its innovations reveal), while every input is rejected, ",
     "and for good once the filter has failed (fmi2Discard). It is true again when the window is back within bound; ",
     "both changes are logged. An input that fails the gate for a whole window makes the filter inconsistent too: ",
     "from the data alone it cannot tell whether that sensor or the estimate is wrong.</li>\n</ul>",
 );
 
+/// The names between braces in a documentation text: each `{name}` is written as
+/// `<code>name</code> (default X unit)` from the variable's start value, so that no
+/// shipped text states a default of its own.
+pub fn mentioned_variables(text: &str) -> impl Iterator<Item = &str> {
+    text.split('{').skip(1).filter_map(|rest| rest.split_once('}').map(|(name, _)| name))
+}
+
+/// `text` with every `{name}` written out as the variable `name` of `d` and its default,
+/// or as the phrase `computed` gives for that name.
+///
+/// # Panics
+/// If a name is neither in `computed` nor one of `d`'s variables with a start value:
+/// [`crate::estimators::check`] rejects such an estimator documentation.
+fn expand(text: &str, d: &Descriptor, computed: &[(&str, &str)]) -> String {
+    let mut out = String::with_capacity(text.len() + 256);
+    let mut rest = text;
+    while let Some((before, after)) = rest.split_once('{') {
+        out.push_str(before);
+        let (name, tail) = after.split_once('}').unwrap_or_else(|| panic!("unclosed '{{' in {}", d.model_identifier));
+        if let Some((_, phrase)) = computed.iter().find(|(key, _)| *key == name) {
+            out.push_str(phrase);
+        } else {
+            let v = d.variables.iter().find(|v| v.name == name && v.start.is_some()).unwrap_or_else(|| {
+                panic!("the documentation of {} names no parameter or input {name}", d.model_identifier)
+            });
+            out.push_str(&with_default(v));
+        }
+        rest = tail;
+    }
+    out.push_str(rest);
+    out
+}
+
+/// `<code>name</code> (default X unit)`: the one way the shipped texts state a default
+/// (`tests/model_description.rs` parses it back and compares it with the start value).
+fn with_default(v: &Variable) -> String {
+    let start = v.start.unwrap_or(f64::NAN);
+    let value = match v.kind {
+        Kind::Real => readable(start),
+        Kind::Integer | Kind::Boolean => number(v, start),
+        Kind::Enumeration(t) => {
+            let item = t.items.iter().find(|(value, _, _)| f64::from(*value) == start);
+            match item {
+                Some((_, item, _)) => format!("{}, <code>{}</code>", number(v, start), esc(item)),
+                None => number(v, start),
+            }
+        }
+    };
+    let unit = match v.unit {
+        Some(unit) if unit != "1" && v.kind == Kind::Real => format!(" {}", esc(unit)),
+        _ => String::new(),
+    };
+    format!("<code>{}</code> (default {value}{unit})", esc(v.name))
+}
+
+/// `x` as a reader writes it, and exactly (the shortest digits that read back as `x`):
+/// `0.02`, `980`, `1e8`, `5e-5`.
+fn readable(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// `; the default is a gate at about zσ` for the default `gate_probability` of `d`
+/// (nothing when it turns the gate off).
+fn gate_sigmas_phrase(d: &Descriptor) -> String {
+    let p = d.supervision.gate_probability;
+    if p > 0.0 && p < 1.0 {
+        format!("; the default is a gate at about {:.1}σ", gate_sigmas(p))
+    } else {
+        String::new()
+    }
+}
+
+/// The z a Gaussian innovation lies beyond with probability `1 − p` (two-sided): the
+/// gate of `gate_probability` p in standard deviations, for `0 < p < 1`.
+fn gate_sigmas(p: f64) -> f64 {
+    // Bisection on the two-sided tail erfc(z/√2), which falls in z.
+    let (mut lo, mut hi) = (0.0_f64, 40.0_f64);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if erfc(mid / std::f64::consts::SQRT_2) > 1.0 - p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The complementary error function, to a relative error below 1.2e-7 (the Chebyshev
+/// fit of Numerical Recipes, `erfcc`): enough for a σ written with one decimal.
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let poly = [
+        -1.265_512_23,
+        1.000_023_68,
+        0.374_091_96,
+        0.096_784_18,
+        -0.186_288_06,
+        0.278_868_07,
+        -1.135_203_98,
+        1.488_515_87,
+        -0.822_152_23,
+        0.170_872_77,
+    ]
+    .iter()
+    .rev()
+    .fold(0.0, |acc, c| c + t * acc);
+    let r = t * (-z * z + poly).exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
 /// `documentation/index.html`: the study, the time semantics, and a table of
-/// every variable.
+/// every variable. Every default the text states is written from the variable's start
+/// value in `d`'s table (a `{name}` in the texts, see [`mentioned_variables`]).
 pub fn documentation(d: &Descriptor) -> String {
+    let controls = if d.control_dim() > 0 {
+        let starts: Vec<String> =
+            d.variables.iter().filter(|v| matches!(v.role, Role::Control(_))).map(with_default).collect();
+        format!("{CONTROLS_TIMING}{}.</li>\n</ul>\n", starts.join(", "))
+    } else {
+        String::new()
+    };
     let mut h = String::new();
     let _ = write!(
         h,
@@ -253,8 +384,8 @@ pub fn documentation(d: &Descriptor) -> String {
          td,th{{border:1px solid #ccc;padding:0.2em 0.5em;text-align:left}}</style></head><body>\n\
          <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
          <h2>The study</h2>\n{doc}\n\
-         <h2>Time: which measurement, which estimate</h2>\n{TIMING}\n{controls}\
-         <h2>Gross errors, faults and health</h2>\n{SUPERVISION}\n\
+         <h2>Time: which measurement, which estimate</h2>\n{timing}\n{controls}\
+         <h2>Gross errors, faults and health</h2>\n{supervision}\n\
          <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
          fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
          The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free and restores exactly in a new instance.</p>\n",
@@ -262,8 +393,9 @@ pub fn documentation(d: &Descriptor) -> String {
         description = esc(d.description),
         id = d.model_identifier,
         guid = d.guid(),
-        doc = d.documentation,
-        controls = if d.control_dim() > 0 { CONTROLS_TIMING } else { "" }
+        doc = expand(d.documentation, d, &[]),
+        timing = expand(TIMING, d, &[]),
+        supervision = expand(SUPERVISION, d, &[("gate_sigmas", &gate_sigmas_phrase(d))]),
     );
     for (title, causality) in
         [("Inputs", Causality::Input), ("Outputs", Causality::Output), ("Parameters", Causality::Parameter)]
@@ -304,4 +436,24 @@ pub fn documentation(d: &Descriptor) -> String {
     }
     h.push_str("</ul>\n</body></html>\n");
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gate_in_sigmas_is_the_two_sided_gaussian_quantile() {
+        // 99.73 % within 3σ, 1 − 1e-6 within 4.8916σ (normal tables).
+        assert!((gate_sigmas(0.9973) - 3.0).abs() < 1e-3);
+        assert!((gate_sigmas(1.0 - 1e-6) - 4.8916).abs() < 1e-3);
+    }
+
+    #[test]
+    fn defaults_are_written_exactly_and_readably() {
+        for (x, written) in [(0.02, "0.02"), (980.0, "980"), (1e8, "1e8"), (5e-5, "5e-5"), (-25.0, "-25"), (0.0, "0")] {
+            assert_eq!(readable(x), written);
+            assert_eq!(written.parse::<f64>(), Ok(x));
+        }
+    }
 }

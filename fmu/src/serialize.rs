@@ -14,7 +14,9 @@
 //! ```
 //!
 //! All numbers little-endian. Version 4 added the controls in force (the
-//! controls the filter holds for its sample are the snapshot's input). The filter and its twin for reads are rebuilt
+//! controls the filter holds for its sample are the snapshot's input);
+//! version 6 has the supervisor memory's self-describing layout (a header,
+//! then named records). The filter and its twin for reads are rebuilt
 //! from the parameter values and the belief restored from the snapshot; the
 //! outputs are computed afresh at the next read, from exactly that.
 
@@ -25,7 +27,7 @@ use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.

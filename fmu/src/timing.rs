@@ -28,8 +28,10 @@
 //!    the earlier ones before that.
 //!
 //! Every update, at a step or for a read, goes through the instance's
-//! `estimator::Supervisor` (gate, fault flags, re-acquisition, consistency);
-//! a read only shows its outcome, the step commits it.
+//! `estimator::SupervisedFilter`, the loop every study runs too (gate, fault
+//! flags, re-acquisition, consistency): these rules only say when it predicts,
+//! holds controls and updates. A read previews an update on a copy; the step
+//! commits it.
 //!
 //! With [`InputTiming::AtStepEnd`] (masters that step the plant first and
 //! hand its outputs of `t + h` over before our step, Gauss–Seidel) the inputs
@@ -65,7 +67,7 @@
 //!    values, the filter's held input (the controls of its current sample) and
 //!    [`Progress::controls`] (those in force from the FMU's time on).
 
-use estimator::{FaultChange, FilterError, Noise, Snapshot, StateEstimator, Supervisor};
+use estimator::{Event, FilterError, Noise, Snapshot, StateEstimator, SupervisedFilter, Supervisor};
 
 /// How the inputs set before `fmi2DoStep(t, h)` are timed (the `input_timing` parameter).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,25 +120,11 @@ pub struct Reading<'a> {
     pub healthy: bool,
 }
 
-/// Something a driver reports once, when it happens.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Event {
-    /// A channel became faulty (`true`) or good again (`false`) at the time.
-    Fault { channel: usize, faulty: bool, time: f64 },
-    /// The filter re-acquired at the time; the channel that triggered it.
-    Reacquired { channel: usize, time: f64 },
-    /// The filter became inconsistent (`false`) or consistent again (`true`) at the time.
-    Consistent { consistent: bool, time: f64 },
-    /// The re-acquisitions spent their inflation budget (`true`), or a sample
-    /// passed the gate whole again (`false`), at the time.
-    Exhausted { exhausted: bool, time: f64 },
-}
-
 /// The running estimator of an instance: the filter on its grid, and a
 /// second filter of the same build that answers reads which must not touch it.
 pub struct Estimation {
-    /// The belief at sample `samples`.
-    filter: Box<dyn StateEstimator>,
+    /// The belief at sample `samples`, behind its supervisor.
+    supervised: SupervisedFilter,
     /// Scratch for reads: the feedthrough update, the prediction off the grid.
     reader: Box<dyn StateEstimator>,
     /// The interval whose process noise the reader holds (s).
@@ -163,15 +151,8 @@ pub struct Estimation {
     samples: u64,
     /// Sample `samples` had its measurement (or is past without one).
     measured: bool,
-    skipped: u64,
-    /// NIS of the latest update made (kept here: a restored belief has no innovation).
-    nis: f64,
-    /// Gate, fault flags, re-acquisition and consistency of the updates.
-    supervisor: Supervisor,
     /// Per measurement row, for readings: the fault flags shown.
     faulty: Vec<bool>,
-    /// What happened since the driver last took the events.
-    events: Vec<Event>,
 }
 
 /// The part of an [`Estimation`] an FMU state saves: the rest comes from the parameters.
@@ -208,11 +189,11 @@ impl Estimation {
         timing: InputTiming,
         supervisor: Supervisor,
         controls: &[f64],
-    ) -> Self {
+    ) -> Result<Self, FilterError> {
         let copy = filter.snapshot();
-        let (m, nis) = (filter.measurement_dim(), filter.innovation().nis());
-        Self {
-            filter,
+        let m = filter.measurement_dim();
+        Ok(Self {
+            supervised: SupervisedFilter::new(filter, supervisor)?,
             reader,
             reader_interval: sample_time,
             posterior_ready: false,
@@ -225,17 +206,13 @@ impl Estimation {
             timing,
             samples: 0,
             measured: false,
-            skipped: 0,
-            nis,
-            supervisor,
             faulty: vec![false; m],
-            events: Vec::with_capacity(2 * m + 2),
-        }
+        })
     }
 
     /// Continues from a saved [`Progress`] instead of the start.
     pub fn resume(mut self, progress: &Progress) -> Result<Self, FilterError> {
-        self.filter.restore(&progress.belief)?;
+        self.supervised.restore(&progress.belief)?;
         if progress.controls.len() != self.standing.len() {
             return Err(FilterError::InvalidSetting(format!(
                 "{} controls saved, the model has {}",
@@ -245,11 +222,9 @@ impl Estimation {
         }
         self.standing.copy_from_slice(&progress.controls);
         self.sample_controls.copy_from_slice(&progress.belief.input);
+        self.supervised.resume(progress.skipped, progress.nis, &progress.supervisor)?;
         self.samples = progress.samples;
         self.measured = progress.measured;
-        self.skipped = progress.skipped;
-        self.nis = progress.nis;
-        self.supervisor.load(&progress.supervisor)?;
         Ok(self)
     }
 
@@ -258,28 +233,26 @@ impl Estimation {
         Progress {
             samples: self.samples,
             measured: self.measured,
-            skipped: self.skipped,
-            nis: self.nis,
+            skipped: self.supervised.skipped(),
+            nis: self.supervised.nis(),
             supervisor: {
                 let mut words = Vec::new();
-                self.supervisor.save(&mut words);
+                self.supervised.supervisor().save(&mut words);
                 words
             },
             controls: self.standing.clone(),
-            belief: self.filter.snapshot(),
+            belief: self.supervised.filter().snapshot(),
         }
     }
 
     /// Takes the events since the last call, oldest first.
-    pub fn take_events(&mut self, mut each: impl FnMut(Event)) {
-        for event in self.events.drain(..) {
-            each(event);
-        }
+    pub fn take_events(&mut self, each: impl FnMut(Event)) {
+        self.supervised.take_events(each);
     }
 
     /// The filter on its grid.
     pub fn filter(&self) -> &dyn StateEstimator {
-        self.filter.as_ref()
+        self.supervised.filter()
     }
 
     /// The input timing.
@@ -322,13 +295,14 @@ impl Estimation {
         }
         if self.timing == InputTiming::AtCommunicationPoint && self.at_current_sample(t) && !self.measured {
             let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-            if posterior_ready && same(self.supervisor.pending_measurement(), z) && same(&self.read_controls, u) {
+            let supervisor = self.supervised.supervisor();
+            if posterior_ready && same(supervisor.pending_measurement(), z) && same(&self.read_controls, u) {
                 // The read already made this update: take its result, bit for bit.
-                self.reader.snapshot_into(&mut self.copy);
-                if let Err(error) = self.filter.restore(&self.copy) {
+                let time = self.current_sample();
+                if let Err(error) = self.supervised.commit_preview(self.reader.as_ref(), &mut self.copy, z, time) {
                     return Err(self.failure(self.samples, error));
                 }
-                self.commit(z);
+                self.measured = true;
             } else {
                 self.update(z)?;
             }
@@ -339,7 +313,7 @@ impl Estimation {
             if self.current_sample() >= t - self.tolerance() {
                 self.sample_controls.copy_from_slice(&self.standing);
             }
-            let result = self.filter.predict(&self.sample_controls, self.sample_time);
+            let result = self.supervised.predict(&self.sample_controls, self.sample_time);
             if let Err(error) = result {
                 return Err(self.failure(self.samples + 1, error));
             }
@@ -369,38 +343,19 @@ impl Estimation {
         if same {
             return Ok(());
         }
-        self.filter.hold_input(&self.standing)?;
+        self.supervised.hold_input(&self.standing)?;
         self.sample_controls.copy_from_slice(&self.standing);
         Ok(())
     }
 
     fn update(&mut self, z: &[f64]) -> Result<(), StepFailure> {
-        match self.supervisor.gate(self.filter.as_mut(), z) {
+        let time = self.current_sample();
+        match self.supervised.update(z, time) {
             Ok(_) => {
-                self.commit(z);
+                self.measured = true;
                 Ok(())
             }
             Err(error) => Err(self.failure(self.samples, error)),
-        }
-    }
-
-    /// Counts the supervisor's pending outcome of the update at the current sample.
-    fn commit(&mut self, z: &[f64]) {
-        let time = self.current_sample();
-        self.measured = true;
-        self.skipped += missing_rows(z);
-        self.nis = self.supervisor.pending().nis;
-        if let Some(channel) = self.supervisor.pending().reacquired {
-            self.events.push(Event::Reacquired { channel, time });
-        }
-        let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());
-        let events = &mut self.events;
-        self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));
-        if self.supervisor.consistent() != was_consistent {
-            self.events.push(Event::Consistent { consistent: self.supervisor.consistent(), time });
-        }
-        if self.supervisor.exhausted() != was_exhausted {
-            self.events.push(Event::Exhausted { exhausted: self.supervisor.exhausted(), time });
         }
     }
 
@@ -427,17 +382,18 @@ impl Estimation {
                     // The update at t with the controls of t (rule 5).
                     self.load_reader(Some(u))?;
                     self.read_controls.copy_from_slice(u);
-                    let nis = match self.supervisor.gate(self.reader.as_mut(), z) {
+                    let nis = match self.supervised.preview(self.reader.as_mut(), z) {
                         Ok(outcome) => outcome.nis,
                         Err(e) => return Err(format!("the update with the inputs at t = {t} s failed: {e}")),
                     };
                     self.posterior_ready = true;
-                    let skipped = self.skipped + missing_rows(z);
+                    let skipped = self.supervised.skipped_with_pending();
+                    let supervisor = self.supervised.supervisor();
                     for (c, flag) in self.faulty.iter_mut().enumerate() {
-                        *flag = self.supervisor.faulty_with_pending(c);
+                        *flag = supervisor.faulty_with_pending(c);
                     }
-                    let rejected = self.supervisor.rejected_with_pending();
-                    let healthy = self.supervisor.healthy_with_pending();
+                    let rejected = supervisor.rejected_with_pending();
+                    let healthy = supervisor.healthy_with_pending();
                     Ok(Reading { belief: self.reader.as_ref(), nis, skipped, rejected, faulty: &self.faulty, healthy })
                 }
                 _ => Ok(self.committed_reading(false)),
@@ -472,23 +428,24 @@ impl Estimation {
 
     /// A reading of the committed counts, with the filter's belief or the reader's.
     fn committed_reading(&mut self, reader: bool) -> Reading<'_> {
+        let supervisor = self.supervised.supervisor();
         for (c, flag) in self.faulty.iter_mut().enumerate() {
-            *flag = self.supervisor.channels()[c].faulty;
+            *flag = supervisor.channels()[c].faulty;
         }
         Reading {
-            belief: if reader { self.reader.as_ref() } else { self.filter.as_ref() },
-            nis: self.nis,
-            skipped: self.skipped,
-            rejected: self.supervisor.rejected(),
+            belief: if reader { self.reader.as_ref() } else { self.supervised.filter() },
+            nis: self.supervised.nis(),
+            skipped: self.supervised.skipped(),
+            rejected: supervisor.rejected(),
             faulty: &self.faulty,
-            healthy: self.supervisor.healthy(),
+            healthy: supervisor.healthy(),
         }
     }
 
     /// Copies the filter's belief into the reader, holding `controls` instead of
     /// the filter's input when given.
     fn load_reader(&mut self, controls: Option<&[f64]>) -> Result<(), String> {
-        self.filter.snapshot_into(&mut self.copy);
+        self.supervised.filter().snapshot_into(&mut self.copy);
         if let Some(u) = controls {
             self.copy.input.copy_from_slice(u);
         }
@@ -503,10 +460,6 @@ impl Estimation {
         self.reader_interval = self.sample_time;
         // A feedthrough update made with the old R is no longer the one to commit.
         self.posterior_ready = false;
-        self.filter.set_noise(noise)
+        self.supervised.set_noise(noise)
     }
-}
-
-fn missing_rows(z: &[f64]) -> u64 {
-    z.iter().filter(|v| !v.is_finite()).count() as u64
 }

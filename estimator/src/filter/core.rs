@@ -27,6 +27,8 @@ pub(crate) struct Core<M> {
 
 impl<M: Model> Core<M> {
     pub fn new(model: M, noise: Noise, t0: f64, prior: &Gaussian) -> Result<Self, FilterError> {
+        // Here and not in a step: reading the environment allocates.
+        crate::linalg::read_environment();
         let n = model.state_dim();
         let m = model.measurement_dim();
         check_len("process noise Q", n, noise.state_dim())?;

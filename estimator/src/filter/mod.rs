@@ -14,6 +14,7 @@ mod covariance_root;
 mod ekf;
 mod innovation;
 mod point_blocks;
+mod point_rule;
 mod sigma_point;
 mod sr_ckf;
 
@@ -29,6 +30,7 @@ use nalgebra::{DMatrix, DVector};
 pub use covariance_root::{CholeskyRoot, CovarianceRoot, SvdRoot};
 pub use ekf::ExtendedKalman;
 pub use innovation::Innovation;
+pub use point_rule::{CubaturePoints, PointRule, UnscentedPoints};
 pub use sigma_point::SigmaPointKalman;
 pub use sr_ckf::SquareRootCubature;
 

@@ -1,6 +1,7 @@
 //! The covariance-form sigma-point Kalman filter, generic in its point set
-//! (cubature or scaled unscented) and in how it takes the square root of `P`
-//! (Cholesky or SVD). CKF, SVD-CKF and UKF are instances of it.
+//! (cubature or scaled unscented, a [`PointRule`] type) and in how it takes
+//! the square root of `P` (Cholesky or SVD, a [`CovarianceRoot`] type). CKF,
+//! SVD-CKF and UKF are instances of it, each a type of its own.
 //!
 //! Each cycle follows Arasaratnam & Haykin (2009), Algorithm 1:
 //!
@@ -12,6 +13,8 @@
 //!           then the Kalman correction (see `correction.rs`).
 //! ```
 
+use std::marker::PhantomData;
+
 use nalgebra::DMatrix;
 
 use crate::error::{FilterError, Stage};
@@ -19,6 +22,7 @@ use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::covariance_root::CovarianceRoot;
 use crate::filter::point_blocks::PointBlocks;
+use crate::filter::point_rule::PointRule;
 use crate::filter::{check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{axpy, symmetrize, Lanes};
@@ -26,13 +30,15 @@ use crate::model::Model;
 use crate::noise::Noise;
 use crate::points::SigmaPoints;
 
-/// A sigma-point Kalman filter with a full covariance `P`.
+/// A sigma-point Kalman filter with a full covariance `P`, its square root
+/// taken by `R` and its points spread by the rule `P`.
 ///
 /// Use it through its named instances [`CubatureKalman`](crate::CubatureKalman),
 /// [`SvdCubature`](crate::SvdCubature) and [`UnscentedKalman`](crate::UnscentedKalman).
 #[derive(Debug, Clone)]
-pub struct SigmaPointKalman<M, R> {
+pub struct SigmaPointKalman<M, R, P> {
     kind: FilterKind,
+    rule: PhantomData<P>,
     core: Core<M>,
     points: SigmaPoints,
     root: R,
@@ -57,7 +63,7 @@ pub struct SigmaPointKalman<M, R> {
     correction: Correction,
 }
 
-impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
+impl<M: Model, R: CovarianceRoot, P: PointRule> SigmaPointKalman<M, R, P> {
     pub(crate) fn with_points(
         kind: FilterKind,
         model: M,
@@ -69,6 +75,7 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
         let (n, m, count) = (core.n(), core.m(), points.len());
         Ok(Self {
             kind,
+            rule: PhantomData,
             points,
             root: R::new(n),
             p: prior.covariance.clone(),
@@ -203,14 +210,14 @@ impl<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R> {
     }
 }
 
-impl<M: Model, R: CovarianceRoot> StateEstimator for SigmaPointKalman<M, R> {
+impl<M: Model, R: CovarianceRoot, P: PointRule> StateEstimator for SigmaPointKalman<M, R, P> {
     core_accessors!();
 
     fn kind(&self) -> FilterKind {
         self.kind
     }
 
-    steps_with_avx2!(<M: Model, R: CovarianceRoot> SigmaPointKalman<M, R>);
+    steps_with_avx2!(<M: Model, R: CovarianceRoot, P: PointRule> SigmaPointKalman<M, R, P>);
 
     fn write_covariance(&self, out: &mut DMatrix<f64>) {
         out.copy_from(&self.p);

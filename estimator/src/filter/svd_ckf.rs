@@ -10,6 +10,7 @@
 
 use crate::error::FilterError;
 use crate::filter::covariance_root::SvdRoot;
+use crate::filter::point_rule::CubaturePoints;
 use crate::filter::{FilterKind, SigmaPointKalman};
 use crate::gaussian::Gaussian;
 use crate::model::Model;
@@ -17,9 +18,9 @@ use crate::noise::Noise;
 use crate::points::SigmaPoints;
 
 /// SVD-CKF.
-pub type SvdCubature<M> = SigmaPointKalman<M, SvdRoot>;
+pub type SvdCubature<M> = SigmaPointKalman<M, SvdRoot, CubaturePoints>;
 
-impl<M: Model> SigmaPointKalman<M, SvdRoot> {
+impl<M: Model> SvdCubature<M> {
     /// An SVD-CKF starting from `prior` at time 0.
     pub fn svd_cubature(model: M, noise: Noise, prior: &Gaussian) -> Result<Self, FilterError> {
         let points = SigmaPoints::cubature(model.state_dim());

@@ -167,7 +167,8 @@ impl Lanes for Portable {
 pub(crate) use avx2::Avx2;
 
 /// Runs a function body compiled with AVX2 and FMA enabled when the CPU has
-/// them, and the same body compiled for the baseline CPU otherwise; the body
+/// them (and the portable kernels are not forced, see `dispatch.rs`), and the
+/// same body compiled for the baseline CPU otherwise; the body
 /// gets the matching [`Lanes`] (`lanes`) for its kernels. Everything the body
 /// inlines (the plain loops of a filter step, a model's block methods marked
 /// `#[inline]`) is then vectorised with AVX2.
@@ -182,7 +183,7 @@ macro_rules! with_avx2 {
         #[inline(always)]
         fn body<Kernels: $crate::linalg::Lanes, $($g: $bound),*>($lanes: Kernels, $($arg: $t),*) -> $ret $body
         #[cfg(target_arch = "x86_64")]
-        let result = if let Some(avx2) = $crate::linalg::Avx2::detect() {
+        let result = if let Some(avx2) = $crate::linalg::Avx2::selected() {
             #[target_feature(enable = "avx2,fma")]
             fn run<$($g: $bound),*>(avx2: $crate::linalg::Avx2, $($arg: $t),*) -> $ret {
                 body(avx2, $($arg),*)
@@ -223,6 +224,14 @@ mod avx2 {
         pub(crate) fn detect() -> Option<Self> {
             (std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma"))
                 .then_some(Self(()))
+        }
+
+        /// What a filter step runs on: `Some` when the CPU has AVX2 and FMA
+        /// and the portable kernels are not forced (see `dispatch.rs`).
+        #[inline(always)]
+        pub(crate) fn selected() -> Option<Self> {
+            // The choice is AVX2 only where `detect` found it.
+            (crate::linalg::dispatch::choice() == crate::linalg::Kernels::Avx2).then_some(Self(()))
         }
     }
 

@@ -74,6 +74,8 @@ const MAX_SWEEPS: usize = 60;
 impl SymmetricEigen {
     /// Buffers for `n × n` matrices.
     pub fn new(n: usize) -> Self {
+        // Here and not in `decompose`: reading the environment allocates.
+        crate::linalg::read_environment();
         let ld = n.div_ceil(LANES) * LANES;
         Self {
             a: DMatrix::zeros(n, n),

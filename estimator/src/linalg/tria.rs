@@ -138,7 +138,7 @@ impl Tria {
     fn triangularize(&mut self, cols: usize) {
         assert!(cols <= self.cols, "Tria::factor: {cols} columns for a workspace of {}", self.cols);
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = Avx2::detect() {
+        if let Some(avx2) = Avx2::selected() {
             self.householder_avx2(avx2, cols);
         } else {
             self.householder(Portable, cols);

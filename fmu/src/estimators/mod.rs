@@ -10,6 +10,7 @@ mod s5_missile;
 
 use estimator::{FilterKind, Noise, QuantizedSteps, StateEstimator, SupervisorSettings, UnscentedParams};
 
+use crate::model_description;
 use crate::timing::Reading;
 use crate::variables::{Causality, EnumerationType, Kind, Parameters, Role, Variability, Variable};
 
@@ -58,7 +59,9 @@ pub struct Descriptor {
     pub model_name: &'static str,
     /// `description`.
     pub description: &'static str,
-    /// HTML paragraphs on the study behind the estimator, for `documentation/index.html`.
+    /// HTML paragraphs on the study behind the estimator, for `documentation/index.html`;
+    /// a default is stated as `{name}` only, written out from the variable's start value
+    /// (`model_description::mentioned_variables`).
     pub documentation: &'static str,
     /// The variables; value reference = position.
     pub variables: Vec<Variable>,
@@ -196,7 +199,7 @@ fn common_variables(sample_time: f64, filter: FilterKind, supervision: &Supervis
                 "input_timing",
                 "1",
                 1.0,
-                "which time the inputs set before fmi2DoStep(t, h) are measured at: 1 t (default), 2 t + h (Gauss-Seidel masters)",
+                "which time the inputs set before fmi2DoStep(t, h) are measured at: 1 t, 2 t + h (Gauss-Seidel masters)",
             )
         },
         Variable::parameter(
@@ -322,6 +325,11 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
     }
     if vars.iter().any(|v| matches!(v.role, Role::Derived(k) if k >= MAX_DERIVED)) {
         return Err(format!("at most {MAX_DERIVED} derived outputs"));
+    }
+    for name in model_description::mentioned_variables(descriptor.documentation) {
+        if !vars.iter().any(|v| v.name == name && v.start.is_some()) {
+            return Err(format!("the documentation states the default of {name}, which is no parameter or input"));
+        }
     }
     if !filter_value(descriptor.default_filter).is_finite() {
         return Err(format!("default filter {} is not a value of FilterKind", descriptor.default_filter));

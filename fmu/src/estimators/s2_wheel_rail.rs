@@ -82,6 +82,12 @@ const SENSOR_STD: [(&str, &str); 7] = [
     ("r_z_w4_ddot_std", "noise std of the z_w4_ddot sensor"),
 ];
 
+/// The default masses (kg, Zhai's car): their parameters' start values, and the catalogue
+/// weight the default static wheel load is an eighth of.
+const CAR_BODY_MASS: f64 = 34_000.0;
+const BOGIE_MASS: f64 = 3_000.0;
+const WHEELSET_MASS: f64 = 1_400.0;
+
 pub(super) fn descriptor() -> Descriptor {
     let mut v = Vec::new();
     for (row, (name, description, _, _)) in INPUTS.into_iter().enumerate() {
@@ -99,11 +105,11 @@ pub(super) fn descriptor() -> Descriptor {
     // Zhai's high-speed passenger car, whole (VEHICLE_TRACK.md); the primary damper's
     // blow-off slope and knee are the project's estimates.
     v.extend([
-        positive(Variable::parameter("car_body_mass", "kg", 34_000.0, "car body mass (whole)")),
+        positive(Variable::parameter("car_body_mass", "kg", CAR_BODY_MASS, "car body mass (whole)")),
         positive(Variable::parameter("car_body_pitch_inertia", "kg.m2", 2.277e6, "car body pitch inertia (whole)")),
-        positive(Variable::parameter("bogie_mass", "kg", 3_000.0, "bogie frame mass")),
+        positive(Variable::parameter("bogie_mass", "kg", BOGIE_MASS, "bogie frame mass")),
         positive(Variable::parameter("bogie_pitch_inertia", "kg.m2", 2_710.0, "bogie frame pitch inertia")),
-        positive(Variable::parameter("wheelset_mass", "kg", 1_400.0, "wheelset mass")),
+        positive(Variable::parameter("wheelset_mass", "kg", WHEELSET_MASS, "wheelset mass")),
         positive(Variable::parameter("primary_stiffness", "N/m", 0.55e6, "primary vertical stiffness per axle box")),
         Variable::parameter("primary_damping", "N.s/m", 6e3, "primary damper: slope up to primary_damper_knee"),
         Variable::parameter("primary_damping_beyond", "N.s/m", 2e3, "primary damper: slope beyond the knee"),
@@ -120,7 +126,7 @@ pub(super) fn descriptor() -> Descriptor {
         positive(Variable::parameter(
             "static_wheel_load",
             "N",
-            (34_000.0 + 2.0 * 3_000.0 + 4.0 * 1_400.0) * 9.81 / 8.0,
+            (CAR_BODY_MASS + 2.0 * BOGIE_MASS + 4.0 * WHEELSET_MASS) * 9.81 / 8.0,
             "static load of one wheel on its rail, as weighed (default: an eighth of the catalogue weight)",
         )),
         Variable::integer_parameter("rk4_substeps", 1, (1, 1000), "RK4 steps per filter sample"),
@@ -171,9 +177,9 @@ pub(super) fn descriptor() -> Descriptor {
          primary dampers piecewise linear, secondary suspension linear; the four forces F_N are random walks. \
          Coordinates are deviations from static equilibrium, up; the forces include the static wheel load.</p>\
          <p>Defaults: Zhai's high-speed passenger car; the paper's set-up (eq. (22)) with the forces' noise as an \
-         intensity and the motion states' noise at 3e-5 and 1e-5 per sample instead of 3.2e-2 and 1e-3 (with the \
-         paper's values the positions drift unobserved and the forces' standard deviation grows to hundreds of kN); \
-         1 kHz sampling, as axle-box data acquisition records.</p>",
+         intensity and the motion states' noise at {q_body_std} and {q_wheelset_std} per sample instead of 3.2e-2 \
+         and 1e-3 (with the paper's values the positions drift unobserved and the forces' standard deviation grows \
+         to hundreds of kN); a sample every {sample_time}, as axle-box data acquisition records.</p>",
         variables: v,
         default_experiment: DefaultExperiment { start: 0.0, stop: 4.0, step: 0.001 },
         build_filter: build,

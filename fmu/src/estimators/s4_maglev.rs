@@ -231,23 +231,25 @@ pub(super) fn descriptor() -> Descriptor {
         model_name: "kalfmu S4 maglev speed and position from four PRW channels",
         description: "Fuses a maglev train's four long-stator position channels into its position, speed and acceleration, flagging faulty channels",
         documentation: "<p>Study S4 (seed 003): four redundant long-stator (PRW) position channels, head and tail, \
-         left and right, a telegram every 20 ms, fused into the train's position, speed and acceleration with their \
-         σ. The paper differences each channel's positions into a speed, rejects outliers by Grubbs' test, weights \
+         left and right, a telegram every {sample_time}, fused into the train's position, speed and acceleration \
+         with their σ. The paper differences each channel's positions into a speed, rejects outliers by Grubbs' test, weights \
          the rest adaptively and runs a UKF on the fused speed; this estimator filters the four positions instead \
          (a constant-acceleration model driven by white jerk, each channel's offset a state), which does not \
-         multiply the position noise by about 70 as differencing 20 ms apart does.</p>\
+         multiply the position noise by √2/sample_time as differencing consecutive telegrams does.</p>\
          <p>Faults: a telegram not received is NaN (missing); a resent telegram repeats the last position bit for \
-         bit and is left out from its first repeat (stuck_after 2); a spike fails the innovation gate; a slot slip \
-         (the channel reads a slot pitch off from then on) is seen as slip_after rejected telegrams at the same \
-         multiple of slot_pitch and re-based into the channel's offset; an installation offset is learnt in the \
-         offset. Without markers the position is the reference point plus the mean of the four offsets, which no \
+         bit and is left out from its first repeat, hence {stuck_after}; a spike fails the innovation gate; a slot \
+         slip (the channel reads a slot pitch off from then on) is seen as {slip_after} rejected telegrams within \
+         {slip_tolerance} of the same multiple of {slot_pitch} and re-based into the channel's offset; an \
+         installation offset is learnt in the offset. Without markers the position is the reference point plus the mean of the four offsets, which no \
          data separates; a marker reading pins it.</p>\
          <p>Outputs: speed is the speed at the time read (the filtered speed); fused_speed is the mean speed over \
          the last telegram interval, v - a·sample_time/2, the quantity the paper's ΔP/Δt estimates; each channel's \
          weight is its share in the speed's correction by the next telegram, 0 while it is faulty.</p>\
-         <p>Defaults: the paper's test run (jerk_intensity 10 m²/s⁵ for its jumps of 2.5 m/s²; 0.01 for a \
-         jerk-limited run to 500 km/h), channel noise 1.5 mm, offsets within 0.05 m, levers ±25 m. Set prior_position \
-         to the first telegrams' mean less their levers.</p>",
+         <p>Defaults: the paper's test run ({jerk_intensity} for its jumps of 2.5 m/s²; 0.01 for a jerk-limited \
+         run to 500 km/h), channel noise {r_P_head_left_std}, {r_P_head_right_std}, {r_P_tail_left_std}, \
+         {r_P_tail_right_std}, offsets within {prior_offset_std}, levers {lever_head_left}, {lever_head_right}, \
+         {lever_tail_left}, {lever_tail_right}. Set <code>prior_position</code> to the first telegrams' mean less \
+         their levers.</p>",
         variables: v,
         default_experiment: DefaultExperiment { start: 0.0, stop: 113.9, step: 0.02 },
         build_filter: build,

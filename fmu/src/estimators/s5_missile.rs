@@ -80,6 +80,13 @@ const STATES: [(&str, &str, &str, &str, &str, &str); 20] = [
 /// them, as a wind-tunnel estimate 20 % off.
 const TABLE_1: [f64; 10] = [-0.2302, 0.1735, 0.3148, 0.3149, -0.0944, 9.2596, -0.8647, 0.5303, -8.7916, 0.2229];
 
+/// The default prior of each coefficient (the study's tuning): its Table 1 value times
+/// this, with a std of this percentage of its magnitude, and at least the floor. The
+/// documentation states the rule; a test checks it states these numbers.
+const PRIOR_COEFFICIENT_FACTOR: f64 = 1.2;
+const PRIOR_COEFFICIENT_STD_PERCENT: f64 = 30.0;
+const PRIOR_COEFFICIENT_STD_FLOOR: f64 = 0.02;
+
 /// The prior std of the motion: the navigation system at launch.
 const MOTION_PRIOR_STD: [f64; 10] = [5.0, 5.0, 5.0, 0.01, 0.01, 0.01, 10.0, 0.01, 0.01, 0.01];
 
@@ -167,7 +174,8 @@ pub(super) fn descriptor() -> Descriptor {
             (start[i], MOTION_PRIOR_STD[i])
         } else {
             let c = TABLE_1[i - Missile6Dof::COEFFICIENTS];
-            (1.2 * c, (0.3 * c.abs()).max(0.02))
+            let std = PRIOR_COEFFICIENT_STD_PERCENT / 100.0 * c.abs();
+            (PRIOR_COEFFICIENT_FACTOR * c, std.max(PRIOR_COEFFICIENT_STD_FLOOR))
         };
         v.push(Variable::parameter(mean, unit, value, "prior mean of the state"));
         v.push(positive(Variable::parameter(std, unit, deviation, "prior standard deviation of the state")));
@@ -199,20 +207,22 @@ pub(super) fn descriptor() -> Descriptor {
         description: "Identifies a tactical missile's ten force coefficients and its motion from rates, overloads, attitude, altitude and air angles, the rudder deflections known",
         documentation: "<p>Study S5: the ten force coefficients of eq. (4) (C_x = Cx0 + Cx_a·α + Cx_b·β + Cx_d·δx, \
          C_y = Cy0 + Cy_a·α + Cy_d·δy, C_z = Cz0 + Cz_b·β + Cz_d·δz) identified online with an SVD-CKF, with the \
-         rigid-body motion, from the twelve measurements of eq. (2) every 5 ms: the body rates, the overloads (the \
-         aerodynamic force over m·g, as accelerometers read it), the attitude (pitch φ, yaw ψ, roll γ), the altitude \
-         and the air angles. Body axes x forward, y up, z right; the conventions are those of docs/s5-missile.md. \
+         rigid-body motion, from the twelve measurements of eq. (2) every {sample_time}: the body rates, the \
+         overloads (the aerodynamic force over m·g, as accelerometers read it), the attitude (pitch φ, yaw ψ, roll \
+         γ), the altitude and the air angles. Body axes x forward, y up, z right; the conventions are those of docs/s5-missile.md. \
          The coefficients are random walks; a change is caught by the supervisor's re-acquisition.</p>\
          <p>The rudder deflections delta_x, delta_y, delta_z are known inputs (controls) of the model: they drive the \
          motion and the overloads. The controls set at communication point t are the deflections held over [t, t+h), \
          as a control computer outputs them; they enter the update at t (the overloads of t depend on them) and the \
          prediction from it, through every sample inside a longer step (see Time below). A control is never missing: \
          a NaN or infinite value is refused by fmi2SetReal with fmi2Error, the previous value kept.</p>\
-         <p>Defaults: the airframe of Airframe::tactical_missile() (m = 980 kg, S = 1.6771 m², L = 3.85 m, the \
-         project's inertias and moment model); the study's tuning: the prior motion from the launch (V within 5 m/s, \
-         angles within 0.01 rad, h within 10 m), the prior coefficients 1.2 times Table 1 with a std of 30 % (0.02 at \
-         least), motion process noise small (the model is the truth's up to the integration step), coefficient random \
-         walks of 5e-5 of their magnitude per sample, the sensors' noise of docs/s5-missile.md.</p>",
+         <p>Defaults: the airframe of Airframe::tactical_missile() ({mass}, {area}, {length}, the project's \
+         inertias and moment model); the study's tuning: the prior motion from the launch (velocities within \
+         {prior_Vx_std}, {prior_Vy_std}, {prior_Vz_std}, angles within {prior_phi_std}, {prior_psi_std}, \
+         {prior_gamma_std}, altitude within {prior_h_std}), the prior coefficients 1.2 times Table 1 with a std of \
+         30 % (0.02 at least), motion process noise small (the model is the truth's up to the integration step), \
+         coefficient random walks of {q_coefficient_relative_std} of their magnitude per sample, the sensors' noise \
+         of docs/s5-missile.md.</p>",
         variables: v,
         default_experiment: DefaultExperiment { start: 0.0, stop: 20.0, step: 0.005 },
         build_filter: build,
@@ -281,4 +291,19 @@ fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
     }
     let r: Vec<f64> = SENSOR_STD.iter().map(|s| p.non_negative(s.0).map(|x| x * x)).collect::<Result<_, _>>()?;
     Noise::diagonal(&q, &r).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_documentation_states_the_rule_of_the_default_coefficient_priors() {
+        let rule = format!(
+            "{PRIOR_COEFFICIENT_FACTOR} times Table 1 with a std of {PRIOR_COEFFICIENT_STD_PERCENT} % \
+             ({PRIOR_COEFFICIENT_STD_FLOOR} at least)"
+        );
+        let documentation = descriptor().documentation.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(documentation.contains(&rule), "the documentation does not say: {rule}");
+    }
 }

@@ -1,0 +1,44 @@
+//! The study commands' tables, through the `kalfmu` binary: a row per run asked for,
+//! and `--shard K/N` splitting the runs between processes.
+
+#[test]
+fn the_sweep_prints_a_row_per_case_rate_speed_and_vehicle_and_shards_split_its_runs() {
+    let sweep = |shard: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_kalfmu"))
+            .args(["s2-sweep", "--seeds", "2", "--speeds", "80", "--errors", "0.1", "--rates", "1000"])
+            .args(["--duration", "1.5", "--shard", shard])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let whole = sweep("1/1");
+    let rows: Vec<&str> = whole.lines().skip(2).collect();
+    assert_eq!(rows.len(), 15, "3 cases × (catalogue, m_c ∓10 %, K_p ∓10 %):\n{whole}");
+    for variant in ["catalogue", "m_c -10 %", "m_c +10 %", "K_p -10 %", "K_p +10 %"] {
+        assert_eq!(rows.iter().filter(|r| r.contains(variant)).count(), 3, "{variant}:\n{whole}");
+    }
+    assert!(rows.iter().all(|r| r.contains(" 2 ")), "two seeds per row:\n{whole}");
+    // Two shards hold one seed each of every row (the 30 runs alternate).
+    let half = sweep("1/2");
+    assert_eq!(half.lines().skip(2).count(), 15);
+    assert!(half.lines().skip(2).all(|r| r.contains(" 1 ")), "{half}");
+}
+
+#[test]
+fn the_monte_carlo_prints_both_checkpoints_and_shards_split_its_runs() {
+    let monte_carlo = |shard: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_kalfmu"))
+            .args(["s5-monte-carlo", "--runs", "2", "--filters", "SRCKF", "--shard", shard])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let whole = monte_carlo("1/1");
+    let rows = |text: &str| text.lines().filter(|l| l.starts_with("SRCKF    C")).count();
+    assert_eq!(rows(&whole), 20, "ten coefficients at each of two checkpoints:\n{whole}");
+    assert!(whole.contains("NEES of the 10 coefficients: mean") && whole.contains("over 2 runs"), "{whole}");
+    let half = monte_carlo("2/2");
+    assert!(half.contains("over 1 runs"), "the second shard has one of the two runs:\n{half}");
+}

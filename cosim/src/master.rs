@@ -1,0 +1,113 @@
+//! One estimator FMU driven over a run as a co-simulation master drives it, and logged:
+//! at each sample instant `t` the plant's measurements of `t` are set as the FMU's inputs,
+//! the outputs are read (the estimate at `t` given the measurements up to `t`, by direct
+//! feedthrough), `fmi2DoStep(t, dt)` is called, and the outputs are read again (the
+//! estimate at `t + dt` predicted from the measurements up to `t`). The log is the kalfmu
+//! MCAP format (`docs/log-format.md`): the measurements, the truth, both readings
+//! (`/estimate`, `/prediction`), and the run's metadata with the parameters set. Each
+//! study says what its FMU is given and what its truth is; the protocol is here, once.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::Context;
+use estimator::FilterKind;
+use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
+
+use crate::fmu_driver::{filter_enumeration, ImportedFmu};
+
+/// What a study gives the FMU and logs beside it.
+pub struct Setup<'a> {
+    /// The FMU.
+    pub fmu: &'a ImportedFmu,
+    /// The filter inside it.
+    pub filter: FilterKind,
+    /// Real parameters, by name.
+    pub parameters: &'a [(&'static str, f64)],
+    /// The Integer parameters it is set, the filter aside.
+    pub integers: &'a [(&'static str, i32)],
+    /// The inputs, in the order of the measurement vectors, with their descriptions.
+    pub inputs: &'a [(&'static str, &'static str)],
+    /// The Real outputs logged on `/estimate` and `/prediction`.
+    pub outputs: &'a [&'static str],
+    /// The truth's signals (those named as an output are compared with it).
+    pub truth: &'a [SignalSpec],
+    /// The study's metadata (study, case, seed, …); the filter, the parameters and the
+    /// software are added.
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// What the FMU counted over a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Counts {
+    /// Measurement rows left out as missing.
+    pub skipped: i32,
+    /// Measurement rows rejected by the innovation gate.
+    pub rejected: i32,
+}
+
+/// Drives the FMU over the sample instants `times`, `dt` apart (the study's sample time, as
+/// the FMU has it: a step computed from the times could miss its grid by a rounding), and
+/// writes the log to `log`: `measured(k)` are the inputs of instant `k`, `truth(k)` the
+/// truth there; `progress(k)` is called after each instant.
+pub fn run(
+    setup: &Setup<'_>,
+    times: &[f64],
+    dt: f64,
+    measured: impl Fn(usize) -> Vec<f64>,
+    truth: impl Fn(usize) -> Vec<f64>,
+    log: &Path,
+    mut progress: impl FnMut(usize),
+) -> anyhow::Result<Counts> {
+    let Setup { fmu, filter, parameters, integers, inputs, outputs, .. } = *setup;
+    let (first, last) = (times[0], times[times.len() - 1]);
+    let study = setup.metadata.get("study").cloned().unwrap_or_default();
+    let case = setup.metadata.get("case").cloned().unwrap_or_default();
+    let mut instance = fmu.instantiate(
+        &format!("{study}-{case}-{filter}"),
+        first,
+        last,
+        parameters,
+        &[&[("filter", filter_enumeration(filter))], integers].concat(),
+    )?;
+    let input_vrs: Vec<u32> = inputs.iter().map(|(n, _)| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
+    let output_vrs: Vec<u32> = outputs.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
+    let counters = [fmu.vr("skipped_measurements")?, fmu.vr("rejected_measurements")?];
+
+    let mut metadata = setup.metadata.clone();
+    let parameters_json = parameters.iter().map(|(n, v)| (n.to_string(), *v)).collect::<BTreeMap<_, _>>();
+    metadata.insert("filter".into(), filter.name().into());
+    metadata.insert("parameters".into(), serde_json::to_string(&parameters_json)?);
+    metadata.insert("software".into(), format!("kalfmu {}", env!("CARGO_PKG_VERSION")));
+    let mut w = LogWriter::create(log, &metadata)?;
+    let unit = |n: &str| fmu.unit(n);
+    let measured_specs: Vec<SignalSpec> = inputs.iter().map(|(n, what)| SignalSpec::new(n, &unit(n), what)).collect();
+    let ch_m = w.add_channel(MEASUREMENTS, &measured_specs)?;
+    let ch_t = w.add_channel(TRUTH, setup.truth)?;
+    let specs =
+        |what: &str| -> Vec<SignalSpec> { outputs.iter().map(|n| SignalSpec::new(n, &unit(n), what)).collect() };
+    let ch_e = w.add_channel(ESTIMATE, &specs("FMU output read at t after the inputs of t were set"))?;
+    let ch_p = w.add_channel(PREDICTION, &specs("FMU output read right after fmi2DoStep(t - dt, dt)"))?;
+
+    let mut out = vec![0.0; outputs.len()];
+    for (k, &t) in times.iter().enumerate() {
+        let z = measured(k);
+        let context = || format!("{study} {case} {filter} at t = {t} s");
+        instance.set_inputs(&input_vrs, &z).with_context(context)?;
+        instance.read(&output_vrs, &mut out).with_context(context)?;
+        w.write(ch_m, t, &z)?;
+        w.write(ch_t, t, &truth(k))?;
+        w.write(ch_e, t, &out)?;
+        if k + 1 < times.len() {
+            instance.do_step(dt).with_context(context)?;
+            instance.read(&output_vrs, &mut out).with_context(context)?;
+            w.write(ch_p, times[k + 1], &out)?;
+        }
+        progress(k);
+    }
+    let mut counts = [0; 2];
+    instance.read_integers(&counters, &mut counts)?;
+    instance.terminate()?;
+    w.finish()?;
+    Ok(Counts { skipped: counts[0], rejected: counts[1] })
+}

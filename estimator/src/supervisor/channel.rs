@@ -1,0 +1,89 @@
+//! What the supervisor remembers of one measurement channel, and how a
+//! committed sample changes it.
+
+use super::outcome::{FaultChange, RowOutcome};
+use super::settings::SupervisorSettings;
+
+/// The state of one measurement channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Channel {
+    /// Consecutive samples rejected, stuck or missing.
+    pub bad_run: u32,
+    /// Consecutive samples rejected by the gate.
+    pub rejected_run: u32,
+    /// Faulty: the last `fault_after` samples were rejected, stuck or missing.
+    pub faulty: bool,
+    /// Samples rejected by the gate so far.
+    pub rejected: u64,
+    /// Samples left out as stuck so far.
+    pub stuck: u64,
+    /// Samples since this channel last triggered a re-acquisition (`u32::MAX`: never).
+    pub(super) since_reacquisition: u32,
+    /// It failed again right after its re-acquisition: broken, it triggers
+    /// none until it passes the gate.
+    pub suspended: bool,
+    /// The bits of the last finite value.
+    pub(super) last_value: u64,
+    /// How many times in a row that value came.
+    pub(super) repeats: u32,
+    /// The multiple of the step quantum its rejected innovations sit at.
+    pub(super) step_multiple: i64,
+    /// How many samples in a row they sat there.
+    pub(super) step_run: u32,
+}
+
+impl Channel {
+    /// A channel before its first sample.
+    pub(super) fn new() -> Self {
+        Self { since_reacquisition: u32::MAX, ..Self::default() }
+    }
+
+    /// `value` repeats the last one bit for bit often enough to be stuck.
+    pub(super) fn is_stuck_at(&self, value: f64, stuck_after: u32) -> bool {
+        value.to_bits() == self.last_value && self.repeats.saturating_add(1) >= stuck_after
+    }
+
+    /// Its gate failures have lasted long enough to ask for a re-acquisition,
+    /// if this sample fails too, and it is not suspended.
+    pub(super) fn may_trigger_reacquisition(&self, reacquire_after: u32) -> bool {
+        !self.suspended && self.rejected_run.saturating_add(1) >= reacquire_after
+    }
+
+    /// Counts one committed sample: what became of the row, the value
+    /// offered (`z`), whether this channel triggered the sample's
+    /// re-acquisition and the step watch. Returns the fault flag's change, if any.
+    pub(super) fn count(
+        &mut self,
+        index: usize,
+        row: RowOutcome,
+        z: f64,
+        triggered: bool,
+        watch: (i64, u32),
+        settings: &SupervisorSettings,
+    ) -> Option<FaultChange> {
+        let bad = row != RowOutcome::Used;
+        let rejected = row == RowOutcome::Rejected;
+        self.rejected = self.rejected.saturating_add(u64::from(rejected));
+        self.stuck = self.stuck.saturating_add(u64::from(row == RowOutcome::Stuck));
+        self.rejected_run = if rejected { self.rejected_run.saturating_add(1) } else { 0 };
+        // Failing again within a window of its own re-acquisition: the channel, not the state, is wrong.
+        if rejected && (self.since_reacquisition as usize) < settings.window {
+            self.suspended = true;
+        } else if row == RowOutcome::Used {
+            self.suspended = false;
+        }
+        self.since_reacquisition = if triggered { 0 } else { self.since_reacquisition.saturating_add(1) };
+        self.bad_run = if bad { self.bad_run.saturating_add(1) } else { 0 };
+        if z.is_finite() {
+            let same = z.to_bits() == self.last_value;
+            self.repeats = if same { self.repeats.saturating_add(1) } else { 1 };
+            self.last_value = z.to_bits();
+        }
+        (self.step_multiple, self.step_run) = watch;
+        let faulty = self.bad_run >= settings.fault_after;
+        (faulty != self.faulty).then(|| {
+            self.faulty = faulty;
+            FaultChange { channel: index, faulty }
+        })
+    }
+}

@@ -1,0 +1,278 @@
+//! The gate: each update is made, its rows tested, and the update redone
+//! without the rows that fail, from the belief before it.
+//!
+//! * **Row test.** Each row `i` is tested on its normalised innovation
+//!   `νᵢ²/Sᵢᵢ` against the χ²(1) quantile of
+//!   [`SupervisorSettings::gate_probability`](crate::SupervisorSettings::gate_probability).
+//! * **Vector test.** The rows kept are tested together on their NIS against
+//!   the χ²(rows) quantile; when only that test fails, the row with the
+//!   largest normalised innovation goes.
+//! * **Implausible rows.** A row more than
+//!   [`SupervisorSettings::implausible_sigmas`](crate::SupervisorSettings::implausible_sigmas)
+//!   σ away (a saturated ADC, a cable fault) is left out first and never
+//!   used, not even to re-acquire: no state the model can reach explains it.
+//! * **Stuck rows.** A live sensor has noise: a value repeated bit for bit
+//!   [`SupervisorSettings::stuck_after`](crate::SupervisorSettings::stuck_after)
+//!   times in a row is left out before any update, until it changes.
+//!
+//! A row left out is exactly a missing one. Until the gate has left out a row
+//! of its own (implausible ones aside), a failure may instead call for a
+//! re-acquisition (see `reacquisition.rs`).
+
+use super::outcome::{Outcome, RowOutcome};
+use super::settings::SupervisorSettings;
+use super::Supervisor;
+use crate::chi_square;
+use crate::error::FilterError;
+use crate::filter::{FilterKind, Snapshot, StateEstimator};
+
+/// The gate's thresholds on normalised innovations, from the settings.
+#[derive(Debug, Clone)]
+pub(super) struct Thresholds {
+    /// The χ²(1) quantile: a row above it fails.
+    row: f64,
+    /// `implausible_sigmas²`: a row above it is never used.
+    implausible: f64,
+    /// χ²(k) quantiles, `k = 1 … m` at index `k` (infinite at 0).
+    vector: Vec<f64>,
+}
+
+impl Thresholds {
+    /// The thresholds for `m` rows; all infinite when the gate is off.
+    pub fn new(settings: &SupervisorSettings, m: usize) -> Self {
+        let gate_on = settings.gate_probability < 1.0;
+        let quantile = |dof: usize| {
+            if gate_on {
+                chi_square::quantile(dof as f64, settings.gate_probability)
+            } else {
+                f64::INFINITY
+            }
+        };
+        Self {
+            row: quantile(1),
+            implausible: settings.implausible_sigmas * settings.implausible_sigmas,
+            vector: (0..=m).map(|k| if k == 0 { f64::INFINITY } else { quantile(k) }).collect(),
+        }
+    }
+}
+
+/// The gate's buffers, sized once: a gate allocates nothing.
+#[derive(Debug, Clone)]
+pub(super) struct Workspace {
+    /// The belief before the gate, restored before each new pass.
+    pub before: Snapshot,
+    /// `z` with the rows left out so far set to NaN.
+    z_gated: Vec<f64>,
+    /// The rows the last pass used.
+    rows: Vec<usize>,
+    /// Their normalised innovations `νᵢ²/Sᵢᵢ`, by row of `z`.
+    ratios: Vec<f64>,
+    /// The first pass's residual per row (NaN where not available).
+    pub residuals: Vec<f64>,
+}
+
+impl Workspace {
+    /// Buffers for `m` rows.
+    pub fn new(m: usize) -> Self {
+        Self {
+            before: Snapshot {
+                kind: FilterKind::Ckf,
+                time: 0.0,
+                input: Vec::new(),
+                mean: Vec::new(),
+                covariance: Vec::new(),
+            },
+            z_gated: vec![f64::NAN; m],
+            rows: Vec::with_capacity(m),
+            ratios: vec![f64::NAN; m],
+            residuals: vec![f64::NAN; m],
+        }
+    }
+
+    /// The rows of the last pass with their normalised innovations.
+    pub fn tested(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.rows.iter().map(|&r| (r, self.ratios[r]))
+    }
+
+    /// Leaves the tested rows `which` selects out of the next pass, as rejected.
+    fn leave_out(&mut self, rows: &mut [RowOutcome], which: impl Fn(usize, f64) -> bool) {
+        for &r in &self.rows {
+            if which(r, self.ratios[r]) {
+                self.z_gated[r] = f64::NAN;
+                rows[r] = RowOutcome::Rejected;
+            }
+        }
+    }
+}
+
+/// One pass of the gate, tested: the update made with the rows not left out yet.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Pass {
+    /// The rows used.
+    pub dof: usize,
+    /// The row with the largest normalised innovation, and that innovation.
+    pub worst_row: usize,
+    pub worst: f64,
+    /// How many rows fail the row test.
+    failing: usize,
+    /// The NIS fails the vector test.
+    vector_fails: bool,
+    row_threshold: f64,
+    implausible: f64,
+}
+
+impl Pass {
+    /// Every row passes, and the vector too.
+    fn passes(&self) -> bool {
+        self.failing == 0 && !self.vector_fails
+    }
+
+    /// A row of normalised innovation `ratio` no state the model reaches explains.
+    fn implausible(&self, ratio: f64) -> bool {
+        ratio > self.implausible || ratio.is_nan()
+    }
+
+    /// The row fails the gate: on its own, or as the worst row when only the vector fails.
+    pub fn fails(&self, row: usize, ratio: f64) -> bool {
+        ratio > self.row_threshold || (self.failing == 0 && row == self.worst_row)
+    }
+
+    /// Every row fails the gate.
+    pub fn all_fail(&self) -> bool {
+        self.failing == self.dof || (self.dof == 1 && self.vector_fails)
+    }
+
+    /// The row threshold the pass was tested against.
+    pub fn row_threshold(&self) -> f64 {
+        self.row_threshold
+    }
+}
+
+impl Supervisor {
+    /// Updates `filter` with `z` through the gate and keeps the outcome
+    /// pending (see [`Supervisor::commit`]). On `Err` the filter's belief is
+    /// as before the call.
+    pub fn gate(&mut self, filter: &mut dyn StateEstimator, z: &[f64]) -> Result<&Outcome, FilterError> {
+        crate::error::check_len("measurement z", self.channels.len(), z.len())?;
+        self.offer(z);
+        filter.snapshot_into(&mut self.work.before);
+        let mut first_pass = true;
+        // No row has been left out by the gate's own tests yet: a re-acquisition may still be decided.
+        let mut may_reacquire = true;
+        while let Some(pass) = self.update_and_test(filter, first_pass)? {
+            first_pass = false;
+            if pass.passes() {
+                break;
+            }
+            if self.work.tested().any(|(_, ratio)| pass.implausible(ratio)) {
+                self.work.leave_out(&mut self.pending.rows, |_, ratio| pass.implausible(ratio));
+                filter.restore(&self.work.before)?;
+                continue;
+            }
+            if may_reacquire {
+                let decision = self.reacquisition.decide(&pass, self.work.tested(), &self.channels, &self.settings);
+                if let Some((trigger, factor)) = decision {
+                    self.reacquire(filter, trigger, factor)?;
+                    break;
+                }
+            }
+            self.work.leave_out(&mut self.pending.rows, |r, ratio| pass.fails(r, ratio));
+            filter.restore(&self.work.before)?;
+            may_reacquire = false;
+        }
+        if let Some(steps) = &self.steps {
+            steps.take(&self.channels, &self.work.residuals, &mut self.pending, &mut self.work.before, filter)?;
+        }
+        Ok(&self.pending)
+    }
+
+    /// Takes `z` as the pending measurement: the missing rows, the stuck ones
+    /// left out, the rest to be used; the rest of the outcome cleared.
+    fn offer(&mut self, z: &[f64]) {
+        self.z_offered.copy_from_slice(z);
+        self.work.z_gated.copy_from_slice(z);
+        let stuck_after = self.settings.stuck_after;
+        for (c, (row, &v)) in self.pending.rows.iter_mut().zip(z).enumerate() {
+            *row = if !v.is_finite() {
+                RowOutcome::Missing
+            } else if self.channels[c].is_stuck_at(v, stuck_after) {
+                self.work.z_gated[c] = f64::NAN;
+                RowOutcome::Stuck
+            } else {
+                RowOutcome::Used
+            };
+        }
+        let pending = &mut self.pending;
+        pending.reacquired = None;
+        pending.inflation = 1.0;
+        pending.worst_ratio = 0.0;
+        pending.clipped_ratios = 0.0;
+        pending.gated_rows = 0;
+        pending.steps.fill(0.0);
+        self.work.residuals.fill(f64::NAN);
+    }
+
+    /// Updates `filter` with the rows not left out and tests the rows used;
+    /// `None` when there are none. The first pass (all available rows) also
+    /// gives the outcome's ratios and the residuals the step watch reads.
+    fn update_and_test(
+        &mut self,
+        filter: &mut dyn StateEstimator,
+        first_pass: bool,
+    ) -> Result<Option<Pass>, FilterError> {
+        let innovation = filter.update(&self.work.z_gated)?;
+        let (dof, nis) = (innovation.rows_used(), innovation.nis());
+        self.pending.dof = dof;
+        self.pending.nis = nis;
+        if dof == 0 {
+            return Ok(None);
+        }
+        let work = &mut self.work;
+        work.rows.clear();
+        work.rows.extend_from_slice(innovation.rows());
+        for &r in &work.rows {
+            work.ratios[r] = innovation.residual()[r].powi(2) / innovation.covariance()[(r, r)];
+        }
+        let (worst_row, worst) =
+            work.tested().fold((work.rows[0], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        let row_threshold = self.thresholds.row;
+        if first_pass {
+            self.pending.worst_ratio = worst;
+            let clip = row_threshold.min(1e6);
+            self.pending.clipped_ratios = work.tested().map(|(_, ratio)| ratio.min(clip)).sum();
+            self.pending.gated_rows = dof;
+            for &r in &work.rows {
+                work.residuals[r] = innovation.residual()[r];
+            }
+        }
+        Ok(Some(Pass {
+            dof,
+            worst_row,
+            worst,
+            failing: work.tested().filter(|&(_, ratio)| ratio > row_threshold).count(),
+            vector_fails: nis > self.thresholds.vector[dof],
+            row_threshold,
+            implausible: self.thresholds.implausible,
+        }))
+    }
+
+    /// Re-acquires: the covariance inflated by `factor` from the belief before
+    /// the gate, and the update made with every row not left out so far.
+    fn reacquire(&mut self, filter: &mut dyn StateEstimator, trigger: usize, factor: f64) -> Result<(), FilterError> {
+        filter.restore(&self.work.before)?;
+        let reacquired = filter
+            .scale_covariance(factor)
+            .and_then(|()| filter.update(&self.work.z_gated).map(|i| (i.nis(), i.rows_used())));
+        match reacquired {
+            Ok((nis, dof)) => (self.pending.nis, self.pending.dof) = (nis, dof),
+            Err(e) => {
+                // The inflated covariance must not outlive a failed update.
+                filter.restore(&self.work.before)?;
+                return Err(e);
+            }
+        }
+        self.pending.reacquired = Some(trigger);
+        self.pending.inflation = factor;
+        Ok(())
+    }
+}

@@ -1,0 +1,335 @@
+//! What the supervisor remembers between samples, as words for a driver's
+//! saved state (an FMU state), and how those words are laid out.
+//!
+//! The memory describes itself: a header says what it is and what it is
+//! for, then come the records, each a fixed list of named fields of one word
+//! (counters as they are, flags as 0 or 1, floats by their bits):
+//!
+//! ```text
+//! Header          tag, version, channels (m), channel_words, window (w)
+//! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
+//!                 suspended, last_value, repeats, step_multiple, step_run
+//! Reacquisition   lost_run, count, since_last, inflation
+//! Cursor          next, filled
+//! WindowEntry × w clipped_ratios, rows
+//! ```
+//!
+//! The `record!` lines below are that table: a record's words are its fields
+//! in the order listed, and each list must name every field of its struct
+//! (it builds the struct back from them). The consistency verdict is not
+//! saved: it is judged afresh from the window. The pending outcome of a gate
+//! is not part of the memory.
+
+use super::channel::Channel;
+use super::consistency::{Cursor, WindowEntry};
+use super::reacquisition::Reacquisition;
+use super::Supervisor;
+use crate::error::FilterError;
+
+/// The first word of every supervisor memory.
+const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
+
+/// The layout's version: 2 is the self-describing one.
+const VERSION: u64 = 2;
+
+/// A value that is one word of the memory.
+trait Word: Sized {
+    /// What a valid word is, for the error messages.
+    const VALID: &'static str;
+    fn to_word(self) -> u64;
+    /// `None` when the word is not a valid value.
+    fn from_word(word: u64) -> Option<Self>;
+}
+
+impl Word for u64 {
+    const VALID: &'static str = "a count";
+    fn to_word(self) -> u64 {
+        self
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        Some(word)
+    }
+}
+
+impl Word for u32 {
+    const VALID: &'static str = "a count below 2³²";
+    fn to_word(self) -> u64 {
+        u64::from(self)
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        u32::try_from(word).ok()
+    }
+}
+
+impl Word for usize {
+    const VALID: &'static str = "an index";
+    fn to_word(self) -> u64 {
+        self as u64
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        usize::try_from(word).ok()
+    }
+}
+
+impl Word for i64 {
+    const VALID: &'static str = "a signed count";
+    fn to_word(self) -> u64 {
+        self as u64
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        Some(word as i64)
+    }
+}
+
+impl Word for bool {
+    const VALID: &'static str = "a flag (0 or 1)";
+    fn to_word(self) -> u64 {
+        u64::from(self)
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        match word {
+            0 => Some(false),
+            1 => Some(true),
+            _ => None,
+        }
+    }
+}
+
+impl Word for f64 {
+    const VALID: &'static str = "a float";
+    fn to_word(self) -> u64 {
+        self.to_bits()
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        Some(f64::from_bits(word))
+    }
+}
+
+/// A struct saved as one word per field.
+trait Record: Sized {
+    /// The fields, in the order of their words.
+    const FIELDS: &'static [&'static str];
+    /// The number of words.
+    const WORDS: usize = Self::FIELDS.len();
+    /// Appends the record's words.
+    fn save(&self, out: &mut Vec<u64>);
+    /// The record from its [`Record::WORDS`] words; `what` names it in errors.
+    fn load(words: &[u64], what: &str) -> Result<Self, FilterError>;
+}
+
+/// Declares a struct's record: its fields, in the order of their words.
+macro_rules! record {
+    ($record:ident { $($field:ident),+ $(,)? }) => {
+        impl Record for $record {
+            const FIELDS: &'static [&'static str] = &[$(stringify!($field)),+];
+            fn save(&self, out: &mut Vec<u64>) {
+                $(out.push(Word::to_word(self.$field));)+
+            }
+            fn load(words: &[u64], what: &str) -> Result<Self, FilterError> {
+                let mut words = words.iter().copied();
+                Ok(Self { $($field: field(words.next(), what, stringify!($field))?,)+ })
+            }
+        }
+    };
+}
+
+/// What the memory is and what it is for.
+struct Header {
+    /// [`TAG`].
+    tag: u64,
+    /// [`VERSION`].
+    version: u64,
+    /// The supervisor's measurement channels.
+    channels: u64,
+    /// Words per channel record.
+    channel_words: u64,
+    /// Entries in the consistency window.
+    window: u64,
+}
+
+record!(Header { tag, version, channels, channel_words, window });
+record!(Channel {
+    bad_run,
+    rejected_run,
+    faulty,
+    rejected,
+    stuck,
+    since_reacquisition,
+    suspended,
+    last_value,
+    repeats,
+    step_multiple,
+    step_run,
+});
+record!(Reacquisition { lost_run, count, since_last, inflation });
+record!(Cursor { next, filled });
+record!(WindowEntry { clipped_ratios, rows });
+
+/// One field from its word.
+fn field<T: Word>(word: Option<u64>, what: &str, name: &str) -> Result<T, FilterError> {
+    let word = word.ok_or_else(|| invalid(format!("{what} is cut short before `{name}`")))?;
+    T::from_word(word).ok_or_else(|| invalid(format!("{what}: `{name}` is {word}, not {}", T::VALID)))
+}
+
+fn invalid(why: String) -> FilterError {
+    FilterError::InvalidSetting(format!("supervisor memory: {why}"))
+}
+
+/// The words of `count` records of type `R` from `at`, and where the next part starts.
+fn records<R: Record>(words: &[u64], at: usize, count: usize) -> (&[u64], usize) {
+    let end = at + R::WORDS * count;
+    (&words[at..end], end)
+}
+
+impl Supervisor {
+    /// The length of this supervisor's memory in words.
+    fn memory_words(&self) -> usize {
+        let (m, w) = (self.channels.len(), self.window.saved().1.len());
+        Header::WORDS + m * Channel::WORDS + Reacquisition::WORDS + Cursor::WORDS + w * WindowEntry::WORDS
+    }
+
+    /// What the supervisor remembers between samples, as words (see the
+    /// layout in `memory.rs`: a header, then named records), for a driver's
+    /// saved state; the pending outcome is not part of it.
+    /// [`Supervisor::load`] takes it back.
+    pub fn save(&self, out: &mut Vec<u64>) {
+        out.clear();
+        let (cursor, entries) = self.window.saved();
+        let header = Header {
+            tag: TAG,
+            version: VERSION,
+            channels: self.channels.len() as u64,
+            channel_words: Channel::WORDS as u64,
+            window: entries.len() as u64,
+        };
+        header.save(out);
+        for channel in &self.channels {
+            channel.save(out);
+        }
+        self.reacquisition.save(out);
+        cursor.save(out);
+        for entry in entries {
+            entry.save(out);
+        }
+    }
+
+    /// Takes back what [`Supervisor::save`] wrote for a supervisor of the same
+    /// size and window. A memory of another version, size or window, of
+    /// another length than its header says, or with a value out of range, is
+    /// refused with what does not match; on error nothing changes.
+    pub fn load(&mut self, words: &[u64]) -> Result<(), FilterError> {
+        let (m, w) = (self.channels.len(), self.window.saved().1.len());
+        if words.len() < Header::WORDS {
+            return Err(invalid(format!("{} words, fewer than its {}-word header", words.len(), Header::WORDS)));
+        }
+        let header = Header::load(&words[..Header::WORDS], "the header")?;
+        if header.tag != TAG {
+            return Err(invalid(format!("no supervisor memory: its first word is {:#018x}, not the tag", header.tag)));
+        }
+        if header.version != VERSION {
+            return Err(invalid(format!("layout version {}, this supervisor reads version {VERSION}", header.version)));
+        }
+        if header.channels != m as u64 {
+            return Err(invalid(format!("{} channels, this supervisor has {m}", header.channels)));
+        }
+        if header.channel_words != Channel::WORDS as u64 {
+            return Err(invalid(format!(
+                "{} words per channel, version {VERSION} has {}",
+                header.channel_words,
+                Channel::WORDS
+            )));
+        }
+        if header.window != w as u64 {
+            return Err(invalid(format!("a window of {} samples, this supervisor's settings have {w}", header.window)));
+        }
+        let expected = self.memory_words();
+        if words.len() != expected {
+            return Err(invalid(format!("{} words, its header says {expected}", words.len())));
+        }
+
+        let (channel_words, at) = records::<Channel>(words, Header::WORDS, m);
+        let mut channels = self.channels.clone();
+        for (c, (channel, words)) in channels.iter_mut().zip(channel_words.chunks_exact(Channel::WORDS)).enumerate() {
+            *channel = Channel::load(words, &format!("channel {c}"))?;
+        }
+        let (reacquisition_words, at) = records::<Reacquisition>(words, at, 1);
+        let reacquisition = Reacquisition::load(reacquisition_words, "the re-acquisition record")?;
+        let max_inflation = self.settings.max_inflation;
+        if !(reacquisition.inflation >= 1.0 && reacquisition.inflation <= max_inflation) {
+            return Err(invalid(format!(
+                "the inflation {} is outside [1, max_inflation = {max_inflation}]",
+                reacquisition.inflation
+            )));
+        }
+        let (cursor_words, at) = records::<Cursor>(words, at, 1);
+        let cursor = Cursor::load(cursor_words, "the window's cursor")?;
+        if !cursor.fits(w) {
+            return Err(invalid(format!(
+                "the window's cursor (next {}, filled {}) is not a position of a {w}-sample window",
+                cursor.next, cursor.filled
+            )));
+        }
+        let (entry_words, _) = records::<WindowEntry>(words, at, w);
+        let mut entries = Vec::with_capacity(w);
+        for (k, words) in entry_words.chunks_exact(WindowEntry::WORDS).enumerate() {
+            let entry = WindowEntry::load(words, &format!("window entry {k}"))?;
+            if !(entry.clipped_ratios >= 0.0 && entry.clipped_ratios.is_finite()) || entry.rows > m {
+                return Err(invalid(format!(
+                    "window entry {k} ({} over {} rows) is not a sum of normalised innovations of at most {m} rows",
+                    entry.clipped_ratios, entry.rows
+                )));
+            }
+            entries.push(entry);
+        }
+
+        self.channels = channels;
+        self.reacquisition = reacquisition;
+        self.window.restore(cursor, &entries);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_record_lists_its_fields_once() {
+        fn unique(fields: &[&str]) -> bool {
+            fields.iter().enumerate().all(|(i, f)| !fields[..i].contains(f))
+        }
+        assert!(unique(Header::FIELDS) && unique(Channel::FIELDS) && unique(Reacquisition::FIELDS));
+        assert!(unique(Cursor::FIELDS) && unique(WindowEntry::FIELDS));
+    }
+
+    #[test]
+    fn a_record_is_saved_as_many_words_as_it_has_fields_and_loads_back() {
+        let channel = Channel {
+            bad_run: 1,
+            rejected_run: 2,
+            faulty: true,
+            rejected: 4,
+            stuck: 5,
+            since_reacquisition: 6,
+            suspended: true,
+            last_value: 1.5f64.to_bits(),
+            repeats: 9,
+            step_multiple: -3,
+            step_run: 11,
+        };
+        let mut words = Vec::new();
+        channel.save(&mut words);
+        assert_eq!(words.len(), Channel::WORDS);
+        assert_eq!(words.len(), 11);
+        assert_eq!(Channel::load(&words, "channel 0").unwrap(), channel);
+    }
+
+    #[test]
+    fn a_bad_field_is_named_in_the_error() {
+        let mut words = Vec::new();
+        Channel::new().save(&mut words);
+        words[Channel::FIELDS.iter().position(|f| *f == "suspended").unwrap()] = 2;
+        let error = Channel::load(&words, "channel 3").unwrap_err().to_string();
+        assert!(error.contains("channel 3: `suspended` is 2, not a flag (0 or 1)"), "{error}");
+    }
+}

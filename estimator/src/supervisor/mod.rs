@@ -1,0 +1,182 @@
+//! Gross measurement errors and an honest health report, around any filter.
+//! Real sensors saturate, drop out, stick and drift; one such sample must not
+//! become a silent wrong number, and a filter that has lost the state must
+//! say so.
+//!
+//! * **Gate** (`gate.rs`): a row whose normalised innovation fails its χ²
+//!   test is left out of the update exactly like a missing one; implausible
+//!   rows and stuck channels are left out too.
+//! * **Faults**: a channel whose last [`SupervisorSettings::fault_after`]
+//!   samples were all rejected, stuck or missing is faulty, until one passes
+//!   again ([`Channel::faulty`], reported once per change as a [`FaultChange`]).
+//! * **Re-acquisition** (`reacquisition.rs`): a channel that keeps failing
+//!   means either a broken sensor or a filter that lost the state; the
+//!   covariance is inflated once, within a budget, and the next samples tell
+//!   the two apart.
+//! * **Quantised bias steps** (optional, [`Supervisor::with_steps`],
+//!   `steps.rs`): a bias that jumps by a known quantum is taken into its bias
+//!   state instead of inflating every state.
+//! * **Consistency** (`consistency.rs`): the clipped normalised innovations
+//!   over a window, against their χ² bound: is `P` still honest?
+//!
+//! The gate and the bookkeeping are apart: [`Supervisor::gate`] makes the
+//! update on a filter and keeps the outcome pending, [`Supervisor::commit`]
+//! counts it. A driver that computes an update only to show it (an FMU's read
+//! between steps) gates on a copy of the filter and never commits. What is
+//! counted is the supervisor's memory, which [`Supervisor::save`] writes as
+//! self-describing words (`memory.rs`).
+
+mod channel;
+mod consistency;
+mod gate;
+mod memory;
+mod outcome;
+mod reacquisition;
+mod settings;
+mod steps;
+
+pub use channel::Channel;
+pub use outcome::{FaultChange, Outcome, RowOutcome};
+pub use settings::SupervisorSettings;
+pub use steps::QuantizedSteps;
+
+use consistency::{ConsistencyWindow, WindowEntry};
+use gate::{Thresholds, Workspace};
+use reacquisition::Reacquisition;
+
+use crate::error::FilterError;
+
+/// Gate, fault flags, re-acquisition and consistency for one filter.
+#[derive(Debug, Clone)]
+pub struct Supervisor {
+    settings: SupervisorSettings,
+    thresholds: Thresholds,
+    /// Quantised bias steps, when the model has them.
+    steps: Option<QuantizedSteps>,
+    // The memory: what a commit changes and `save` writes.
+    channels: Vec<Channel>,
+    reacquisition: Reacquisition,
+    window: ConsistencyWindow,
+    // The pending sample.
+    pending: Outcome,
+    /// The measurement of the pending outcome, as offered.
+    z_offered: Vec<f64>,
+    work: Workspace,
+}
+
+impl Supervisor {
+    /// A supervisor for a filter with `m` measurement rows.
+    pub fn new(settings: SupervisorSettings, m: usize) -> Result<Self, FilterError> {
+        settings.validate()?;
+        Ok(Self {
+            settings,
+            thresholds: Thresholds::new(&settings, m),
+            steps: None,
+            channels: vec![Channel::new(); m],
+            reacquisition: Reacquisition::new(),
+            window: ConsistencyWindow::new(&settings, m),
+            pending: Outcome::none(m),
+            z_offered: vec![f64::NAN; m],
+            work: Workspace::new(m),
+        })
+    }
+
+    /// With quantised bias steps for the rows that have a bias state.
+    pub fn with_steps(mut self, steps: QuantizedSteps) -> Result<Self, FilterError> {
+        steps.validate(self.channels.len())?;
+        self.steps = Some(steps);
+        Ok(self)
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &SupervisorSettings {
+        &self.settings
+    }
+
+    /// The channels, by row of `z`.
+    pub fn channels(&self) -> &[Channel] {
+        &self.channels
+    }
+
+    /// Measurement rows rejected by the gate so far, over all channels.
+    pub fn rejected(&self) -> u64 {
+        self.channels.iter().map(|c| c.rejected).sum()
+    }
+
+    /// Re-acquisitions so far.
+    pub fn reacquisitions(&self) -> u64 {
+        self.reacquisition.count
+    }
+
+    /// The windowed normalised innovations are within their bound (see the module documentation).
+    pub fn consistent(&self) -> bool {
+        self.window.consistent()
+    }
+
+    /// Every available row has been rejected for the last samples: the filter
+    /// and all its sensors disagree (it re-acquires after `reacquire_after`).
+    pub fn lost(&self) -> bool {
+        self.reacquisition.lost_run > 0
+    }
+
+    /// The re-acquisitions have spent [`SupervisorSettings::max_inflation`]
+    /// since a sample last passed the gate whole: no more until one does.
+    pub fn exhausted(&self) -> bool {
+        self.reacquisition.inflation >= self.settings.max_inflation
+    }
+
+    /// Consistent and not lost.
+    pub fn healthy(&self) -> bool {
+        self.consistent() && !self.lost()
+    }
+
+    /// The mean normalised innovation per row over the window, each clipped
+    /// at the gate (about 1 for a consistent filter; NaN before any row).
+    pub fn windowed_nis(&self) -> f64 {
+        self.window.windowed_nis()
+    }
+
+    /// Whether `channel` would be faulty once the pending outcome is committed
+    /// (what a read between a gate and its commit shows).
+    pub fn faulty_with_pending(&self, channel: usize) -> bool {
+        let bad = self.pending.rows[channel] != RowOutcome::Used;
+        bad && self.channels[channel].bad_run.saturating_add(1) >= self.settings.fault_after
+    }
+
+    /// [`Supervisor::healthy`] as it will be once the pending outcome is
+    /// committed, as far as being lost goes (the window moves at the commit).
+    pub fn healthy_with_pending(&self) -> bool {
+        self.consistent() && !self.pending.nothing_used()
+    }
+
+    /// Gate rejections so far plus those of the pending outcome.
+    pub fn rejected_with_pending(&self) -> u64 {
+        self.rejected() + self.pending.rows.iter().filter(|r| **r == RowOutcome::Rejected).count() as u64
+    }
+
+    /// The measurement the last [`Supervisor::gate`] was given, as offered.
+    pub fn pending_measurement(&self) -> &[f64] {
+        &self.z_offered
+    }
+
+    /// The outcome of the last [`Supervisor::gate`].
+    pub fn pending(&self) -> &Outcome {
+        &self.pending
+    }
+
+    /// Counts the pending outcome: channel runs and faults, the
+    /// re-acquisition run, the consistency window. Calls `changed` for every
+    /// channel whose fault flag changes.
+    pub fn commit(&mut self, mut changed: impl FnMut(FaultChange)) {
+        let outcome = &self.pending;
+        let rows = outcome.rows.iter().zip(&self.z_offered).zip(&outcome.watch);
+        for (index, (channel, ((&row, &z), &watch))) in self.channels.iter_mut().zip(rows).enumerate() {
+            let triggered = outcome.reacquired == Some(index);
+            if let Some(change) = channel.count(index, row, z, triggered, watch, &self.settings) {
+                changed(change);
+            }
+        }
+        self.reacquisition.count(outcome, self.settings.max_inflation);
+        self.window.push(WindowEntry { clipped_ratios: outcome.clipped_ratios, rows: outcome.gated_rows });
+    }
+}

@@ -1,0 +1,75 @@
+//! What one gated sample gives: the fate of each row, the update made, and
+//! the fault-flag changes its commit reports.
+
+/// What became of one measurement row in an update.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowOutcome {
+    /// Not finite in `z`: left out.
+    Missing,
+    /// Used.
+    Used,
+    /// Failed the gate: left out.
+    Rejected,
+    /// Repeated its value `stuck_after` times: left out.
+    Stuck,
+}
+
+/// The outcome of one gated update.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// Per row of `z`.
+    pub rows: Vec<RowOutcome>,
+    /// The covariance was inflated and every row used; the channel whose
+    /// persistent failure triggered it.
+    pub reacquired: Option<usize>,
+    /// The factor the covariance was inflated by (1 without a re-acquisition).
+    pub inflation: f64,
+    /// NIS of the update made (0 without rows).
+    pub nis: f64,
+    /// Its degrees of freedom: the rows used.
+    pub dof: usize,
+    /// The largest normalised innovation `νᵢ²/Sᵢᵢ` of the first pass (all
+    /// available rows), 0 without rows.
+    pub worst_ratio: f64,
+    /// The first pass's normalised innovations, each clipped at the gate, summed.
+    pub clipped_ratios: f64,
+    /// How many rows that sum has.
+    pub gated_rows: usize,
+    /// Per row: the bias step taken (0 for none; see [`QuantizedSteps`](crate::QuantizedSteps)).
+    pub steps: Vec<f64>,
+    /// Per row: the multiple its rejected innovations sit at and how many in
+    /// a row, for the channel to remember at the commit.
+    pub(super) watch: Vec<(i64, u32)>,
+}
+
+impl Outcome {
+    /// The outcome before any sample, for `m` rows: all missing, nothing done.
+    pub(super) fn none(m: usize) -> Self {
+        Self {
+            rows: vec![RowOutcome::Missing; m],
+            reacquired: None,
+            inflation: 1.0,
+            nis: 0.0,
+            dof: 0,
+            worst_ratio: 0.0,
+            clipped_ratios: 0.0,
+            gated_rows: 0,
+            steps: vec![0.0; m],
+            watch: vec![(0, 0); m],
+        }
+    }
+
+    /// Rows were available (not missing) and the update used none of them.
+    pub(super) fn nothing_used(&self) -> bool {
+        self.rows.iter().any(|r| *r != RowOutcome::Missing) && self.dof == 0
+    }
+}
+
+/// A change of a channel's fault flag, for a driver to report once per episode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FaultChange {
+    /// The channel (row of `z`).
+    pub channel: usize,
+    /// Faulty from now on (`true`) or again good (`false`).
+    pub faulty: bool,
+}

@@ -1,0 +1,77 @@
+//! The supervisor's settings and their legal ranges.
+
+use crate::error::FilterError;
+
+/// The supervisor's settings; `Default` is what the studies use.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupervisorSettings {
+    /// Probability of the gate quantiles: a row of a consistent filter is
+    /// rejected with probability `1 − gate_probability`. Default `1 − 1e-6`
+    /// (a row beyond about 4.9σ). `1` turns the gate off.
+    pub gate_probability: f64,
+    /// Consecutive rejected or missing samples that make a channel faulty. Default 3.
+    pub fault_after: u32,
+    /// Consecutive gate failures of a channel before the filter re-acquires. Default 10.
+    pub reacquire_after: u32,
+    /// Consecutive bit-identical values that make a channel stuck. Default 5.
+    pub stuck_after: u32,
+    /// A row this many σ of its innovation away is never used, not even to
+    /// re-acquire: no state the model can reach explains it (a 100 N step of
+    /// the S1 load is about 250σ). Default 1e5.
+    pub implausible_sigmas: f64,
+    /// Samples in the consistency window. Default 200.
+    pub window: usize,
+    /// The consistency test's false-alarm probability per sample for a
+    /// consistent filter. Default 1e-6.
+    pub consistency_probability: f64,
+    /// How far above its χ² bound the windowed NIS may go before the filter
+    /// is inconsistent. Default 3 (the σ understate the errors by more than √3).
+    pub consistency_margin: f64,
+    /// The most the re-acquisitions may multiply the covariance by in total
+    /// between two samples that pass the gate whole. Default 1e8: two full
+    /// re-acquisitions (S1's load step and S5's change of every coefficient
+    /// each take one).
+    pub max_inflation: f64,
+}
+
+impl Default for SupervisorSettings {
+    fn default() -> Self {
+        Self {
+            gate_probability: 1.0 - 1e-6,
+            fault_after: 3,
+            reacquire_after: 10,
+            stuck_after: 5,
+            implausible_sigmas: 1e5,
+            window: 200,
+            consistency_probability: 1e-6,
+            consistency_margin: 3.0,
+            max_inflation: 1e8,
+        }
+    }
+}
+
+impl SupervisorSettings {
+    /// Checks the ranges, saying what is wrong.
+    pub fn validate(&self) -> Result<(), FilterError> {
+        let bad = |why: String| Err(FilterError::InvalidSetting(why));
+        if !(self.gate_probability > 0.0 && self.gate_probability <= 1.0) {
+            return bad(format!("gate probability must be in (0, 1], got {}", self.gate_probability));
+        }
+        if self.fault_after == 0 || self.reacquire_after == 0 || self.window == 0 || self.stuck_after < 2 {
+            return bad("fault_after, reacquire_after and window must be at least 1, stuck_after at least 2".into());
+        }
+        if !(self.consistency_probability > 0.0 && self.consistency_probability < 1.0) {
+            return bad(format!("consistency probability must be in (0, 1), got {}", self.consistency_probability));
+        }
+        if self.implausible_sigmas <= 0.0 || self.implausible_sigmas.is_nan() {
+            return bad(format!("implausible_sigmas must be positive, got {}", self.implausible_sigmas));
+        }
+        if !(self.consistency_margin >= 1.0 && self.consistency_margin.is_finite()) {
+            return bad(format!("consistency margin must be at least 1, got {}", self.consistency_margin));
+        }
+        if !(self.max_inflation >= 1.0 && self.max_inflation.is_finite()) {
+            return bad(format!("max_inflation must be finite and at least 1, got {}", self.max_inflation));
+        }
+        Ok(())
+    }
+}

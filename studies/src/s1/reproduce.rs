@@ -1,0 +1,155 @@
+//! S1 in `kalfmu reproduce`: every case through the packaged FMU with every filter,
+//! one log per run and one comparison per case, and the table beside the paper's figures.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use analyzer::report::{analyse, Options, PairReport, Report};
+use anyhow::Context;
+use estimator::FilterKind;
+use indicatif::{ProgressBar, ProgressStyle};
+use log_format::read::read_log;
+use log_format::write::PREDICTION;
+
+use crate::comparison::{compare_case, log_path};
+use cosim::fmu_driver::ImportedFmu;
+use truth::s1::{Case, Settings};
+
+/// Runs S1 through its FMU and prints the table; returns the number of failed runs.
+pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
+    let fmu = ImportedFmu::load_packaged(fmu_dir, "kalfmu_s1_load")?;
+    let dir = out.join("s1");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    println!(
+        "S1: dynamic load on a 2-DOF nonlinear chain — {} s at {} Hz, truth RK4 at {:.0e} s, accelerometer noise {:.1} % of RMS, seed {}",
+        settings.duration,
+        settings.rate,
+        settings.dt() / settings.truth_substeps() as f64,
+        100.0 * settings.noise_fraction,
+        settings.seed
+    );
+    println!(
+        "estimates from {} driven through the fmi importer; per run a log (<case>_<filter>.mcap), per case a comparison \
+         of every filter (<case>.json, and the Rerun recording <case>.rrd) in {}",
+        fmu_dir.join("kalfmu_s1_load.fmu").display(),
+        dir.display()
+    );
+    println!(
+        "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
+        settings.rmse_window
+    );
+    println!(
+        "two readings of the FMU's outputs, as a master has them: at t after the inputs of t were set (feedthrough, \
+         the first columns) and right after fmi2DoStep(t, dt), the estimate at t + dt predicted from the measurements \
+         up to t ('after step'); each compared with the truth at its own time stamp"
+    );
+    let runs = (Case::ALL.len() * FilterKind::ALL.len()) as u64;
+    let ticks_per_run = (settings.samples() / 1000) as u64;
+    let bar = ProgressBar::new(runs * ticks_per_run.max(1));
+    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]").expect("a valid template"));
+    let mut table = String::new();
+    let _ = writeln!(
+        table,
+        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}",
+        "case",
+        "filter",
+        "corr",
+        "paper",
+        "RMSE conv",
+        "run.peak",
+        "paper",
+        "run.max cv",
+        "paper",
+        "t_conv",
+        "PSD ±3dB Hz",
+        "after step",
+        "RMSE conv"
+    );
+    let mut failures = 0;
+    let mut recordings = Vec::new();
+    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
+    let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
+    for case in Case::ALL {
+        let (truth, measurements) = truth::s1::simulate(&case, settings);
+        let published = super::published(&case);
+        let case_stem = dir.join(case.to_string().replace('/', "_"));
+        // Each filter's run through the FMU, logged and read back.
+        let mut runs = Vec::new();
+        let mut rows: Vec<(FilterKind, anyhow::Result<usize>)> = Vec::new();
+        for kind in FilterKind::ALL {
+            bar.set_message(format!("{case} {kind}"));
+            let log = log_path(&case_stem, kind);
+            let sim = super::fmu_run::Simulated { case: &case, settings, truth: &truth, measurements: &measurements };
+            let result = super::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1))
+                .and_then(|()| Ok(read_log(&log)?))
+                .map(|run| {
+                    runs.push(run);
+                    runs.len() - 1
+                });
+            rows.push((kind, result));
+        }
+        // All of the case's runs in one comparison: JSON and one recording.
+        let compared = compare_case(&runs, &options, &case_stem).and_then(|(comparison, recording)| {
+            recordings.push(recording);
+            let after_step =
+                runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
+            let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
+            let loads = comparison.runs.iter().zip(&after_step).map(|(report, after)| {
+                let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
+                    return Err(format!("the report of {} has no load pair", report.file));
+                };
+                Ok((pair.metrics, pair.psd_agreement_band, after.metrics))
+            });
+            Ok(loads.collect::<Vec<_>>())
+        });
+        let loads = match compared {
+            Ok(loads) => loads,
+            Err(e) => {
+                failures += 1;
+                let _ = writeln!(table, "{:<19} FAILED to compare the filters: {e}", case.to_string());
+                continue;
+            }
+        };
+        for (kind, result) in rows {
+            match result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg)) {
+                Ok((c, band, a)) => {
+                    let band = band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
+                    let _ = writeln!(
+                        table,
+                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}",
+                        case.to_string(),
+                        kind.name(),
+                        c.correlation,
+                        published.correlation,
+                        c.rmse_converged,
+                        c.running_rmse_peak,
+                        paper(published.running_rmse_peak),
+                        c.running_rmse_max_converged,
+                        paper(published.running_rmse_max_converged),
+                        c.convergence_time,
+                        band,
+                        a.correlation,
+                        a.rmse_converged
+                    );
+                }
+                Err(e) => {
+                    failures += 1;
+                    let _ = writeln!(table, "{:<19} {:<8} FAILED: {e:#}", case.to_string(), kind.name());
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    print!("{table}");
+    println!("paper: SRCKF figures of Gong et al. 2024 (correlation; running-RMSE peak; bound after the start), N");
+    println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
+    for recording in &recordings {
+        println!("  {}", recording.display());
+    }
+    Ok(failures)
+}
+
+/// The report's pair of the load `F`.
+fn load_pair<'a>(report: &'a Report<'_>) -> Option<&'a PairReport<'a>> {
+    report.pairs.iter().find(|p| p.truth == "F")
+}

@@ -1,0 +1,125 @@
+//! One S2 case through the packaged estimator FMU (`kalfmu_s2_wheel_rail`), driven as a
+//! co-simulation master drives it ([`cosim::master`]). The FMU gets the user's
+//! vehicle and the study's tuning as parameters, by name, as a user would set them in
+//! their simulator; the log has the seven accelerations and the four true forces.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use estimator::FilterKind;
+use log_format::write::SignalSpec;
+
+use super::study::Tuning;
+use cosim::fmu_driver::ImportedFmu;
+use cosim::master::{self, Counts, Setup};
+use truth::s2::cases::{Case, Measurements, Settings, Truth};
+use truth::s2::parameters::Vehicle;
+
+/// The FMU's identifier.
+pub const IDENTIFIER: &str = "kalfmu_s2_wheel_rail";
+
+/// The FMU's inputs, in the order of the measurement vector of eq. (7).
+const INPUTS: [(&str, &str); 7] = [
+    ("z_c_ddot", "measured bounce acceleration (up) of the car body, with sensor noise"),
+    ("z_t1_ddot", "measured bounce acceleration (up) of the front bogie frame, with sensor noise"),
+    ("z_t2_ddot", "measured bounce acceleration (up) of the rear bogie frame, with sensor noise"),
+    ("z_w1_ddot", "measured acceleration (up) of the axle box of wheelset 1, with sensor noise"),
+    ("z_w2_ddot", "measured acceleration (up) of the axle box of wheelset 2, with sensor noise"),
+    ("z_w3_ddot", "measured acceleration (up) of the axle box of wheelset 3, with sensor noise"),
+    ("z_w4_ddot", "measured acceleration (up) of the axle box of wheelset 4, with sensor noise"),
+];
+
+/// The FMU's outputs that are logged; the forces have their namesakes in the truth.
+const OUTPUTS: [&str; 9] = ["F_N1", "F_N2", "F_N3", "F_N4", "F_N1_std", "F_N2_std", "F_N3_std", "F_N4_std", "nis"];
+
+/// What the user sets in the FMU: their catalogue vehicle, the static wheel load as weighed,
+/// the sample time and the study's tuning.
+pub fn parameters(catalogue: &Vehicle, weighed: f64, tuning: &Tuning) -> Vec<(&'static str, f64)> {
+    let v = catalogue;
+    let mut p = vec![
+        ("car_body_mass", v.car_body_mass),
+        ("car_body_pitch_inertia", v.car_body_pitch_inertia),
+        ("bogie_mass", v.bogie_mass),
+        ("bogie_pitch_inertia", v.bogie_pitch_inertia),
+        ("wheelset_mass", v.wheelset_mass),
+        ("primary_stiffness", v.primary_stiffness),
+        ("primary_damping", v.primary_damping),
+        ("primary_damping_beyond", v.primary_damping_beyond),
+        ("primary_damper_knee", v.primary_damper_knee),
+        ("secondary_stiffness", v.secondary_stiffness),
+        ("secondary_damping", v.secondary_damping),
+        ("half_bogie_spacing", v.half_bogie_spacing),
+        ("half_wheelbase", v.half_wheelbase),
+        ("static_wheel_load", weighed),
+        ("sample_time", tuning.dt),
+        ("p0_motion_std", tuning.prior_std),
+        ("p0_force_std", tuning.prior_std),
+        ("q_body_std", tuning.body_std),
+        ("q_wheelset_std", tuning.wheelset_std),
+        ("force_noise_intensity", tuning.force_intensity),
+        // The library's cubature rule, as in the study's in-process runs.
+        ("ukf_alpha", 1.0),
+        ("ukf_beta", 2.0),
+        ("ukf_kappa", 0.0),
+    ];
+    let sensors = ["r_z_c_ddot_std", "r_z_t1_ddot_std", "r_z_t2_ddot_std", "r_z_w1_ddot_std"];
+    let sensors = sensors.into_iter().chain(["r_z_w2_ddot_std", "r_z_w3_ddot_std", "r_z_w4_ddot_std"]);
+    p.extend(sensors.zip(tuning.sensor_std));
+    p
+}
+
+/// One simulated case and how the user set up the FMU for it.
+pub struct Simulated<'a> {
+    /// The case.
+    pub case: Case,
+    /// The study settings.
+    pub settings: &'a Settings,
+    /// The truth at the sample times.
+    pub truth: &'a Truth,
+    /// The noisy accelerations.
+    pub measurements: &'a Measurements,
+    /// The FMU's parameters ([`parameters`]).
+    pub parameters: &'a [(&'static str, f64)],
+}
+
+/// Runs `kind` on a simulated case through the FMU and writes the log to `log`.
+pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path) -> anyhow::Result<Counts> {
+    let Simulated { case, settings, truth, measurements, parameters } = *sim;
+    let forces: Vec<SignalSpec> = OUTPUTS[..4]
+        .iter()
+        .map(|n| {
+            SignalSpec::new(
+                n,
+                &fmu.unit(n),
+                "true wheel-rail force, as an instrumented wheelset's acquisition records it",
+            )
+        })
+        .collect();
+    let metadata = BTreeMap::from([
+        ("study".to_string(), "S2".to_string()),
+        ("case".to_string(), case.name().to_string()),
+        ("seed".to_string(), settings.seed.to_string()),
+        ("speed_km_h".to_string(), format!("{}", settings.speed * 3.6)),
+        ("rate_hz".to_string(), settings.rate.to_string()),
+        ("noise_fraction".to_string(), settings.noise_fraction.to_string()),
+    ]);
+    let setup = Setup {
+        fmu,
+        filter: kind,
+        parameters,
+        integers: &[("rk4_substeps", 1)],
+        inputs: &INPUTS,
+        outputs: &OUTPUTS,
+        truth: &forces,
+        metadata,
+    };
+    master::run(
+        &setup,
+        &truth.time,
+        1.0 / settings.rate,
+        |k| measurements.accelerations[k].to_vec(),
+        |k| truth.contact[k].to_vec(),
+        log,
+        |_| {},
+    )
+}

@@ -1,0 +1,127 @@
+//! One S4 run through the packaged estimator FMU (`kalfmu_s4_maglev`), driven as the
+//! train's computer drives it ([`cosim::master`]): at each telegram the four
+//! channels' positions (NaN where a telegram did not arrive; a resent one as it came) and
+//! no marker. The user sets the channels' noise, the motion's jerk and the prior position
+//! from the first telegrams; the rest is the FMU's defaults, the study's set-up. The log
+//! has the true position and speed.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use estimator::FilterKind;
+use log_format::write::SignalSpec;
+
+use super::ours::Tuning;
+use cosim::fmu_driver::ImportedFmu;
+use cosim::master::{self, Counts, Setup};
+use truth::s4::channels::Channel;
+use truth::s4::recording::Recording;
+
+/// The FMU's identifier.
+pub const IDENTIFIER: &str = "kalfmu_s4_maglev";
+
+/// The FMU's inputs: the four channels in [`Channel::ALL`]'s order, then the marker.
+const INPUTS: [(&str, &str); 5] = [
+    ("P_head_left", "head-left channel's position telegram (NaN: not received)"),
+    ("P_head_right", "head-right channel's position telegram (NaN: not received)"),
+    ("P_tail_left", "tail-left channel's position telegram (NaN: not received)"),
+    ("P_tail_right", "tail-right channel's position telegram (NaN: not received)"),
+    ("marker_position", "absolute position at a marker (none in these runs)"),
+];
+
+/// The FMU's outputs an in-process run of ours gives too, and which `reproduce` checks
+/// against it: position and speed, then the channels' offsets and weights.
+pub const COMPARED: [&str; 10] = [
+    "position",
+    "speed",
+    "offset_head_left",
+    "offset_head_right",
+    "offset_tail_left",
+    "offset_tail_right",
+    "weight_head_left",
+    "weight_head_right",
+    "weight_tail_left",
+    "weight_tail_right",
+];
+
+/// The FMU's other outputs that are logged.
+const OTHER_OUTPUTS: [&str; 7] =
+    ["position_std", "speed_std", "acceleration", "acceleration_std", "fused_speed", "fused_speed_std", "nis"];
+
+/// What the user sets: the channels' noise, the jerk, the prior position: the first
+/// telegrams' mean less their levers, as [`super::ours::run`] starts.
+pub fn parameters(recording: &Recording, tuning: &Tuning) -> Vec<(&'static str, f64)> {
+    let first = Channel::ALL.iter().map(|&c| recording.position[c as usize][0] - c.lever()).sum::<f64>() / 4.0;
+    let mut p = vec![
+        ("sample_time", recording.telegram_interval),
+        ("jerk_intensity", tuning.jerk_intensity),
+        ("offset_walk", tuning.offset_walk),
+        ("prior_position", first),
+        ("prior_position_std", tuning.position_prior_std),
+        ("prior_speed_std", tuning.speed_prior_std),
+        ("prior_acceleration_std", tuning.acceleration_prior_std),
+        ("prior_offset_std", tuning.offset_prior_std),
+        ("r_marker_position_std", tuning.marker_noise_std),
+        // The library's cubature rule for the UKF, as the in-process runs have it.
+        ("ukf_alpha", 1.0),
+        ("ukf_beta", 2.0),
+        ("ukf_kappa", 0.0),
+    ];
+    for name in ["r_P_head_left_std", "r_P_head_right_std", "r_P_tail_left_std", "r_P_tail_right_std"] {
+        p.push((name, tuning.channel_noise_std));
+    }
+    p
+}
+
+/// Runs `kind` through the FMU over `recording` and writes the log to `log`.
+pub fn run(
+    fmu: &ImportedFmu,
+    kind: FilterKind,
+    recording: &Recording,
+    tuning: &Tuning,
+    case: &str,
+    log: &Path,
+) -> anyhow::Result<Counts> {
+    let parameters = parameters(recording, tuning);
+    let truth = [
+        SignalSpec::new("position", "m", "true position of the reference point"),
+        SignalSpec::new("speed", "m/s", "true speed of the reference point"),
+        // The requirement the study is judged by, drawn and scored by the analyzer
+        // (`X_tolerance`, docs/log-format.md).
+        SignalSpec::new(
+            "speed_tolerance",
+            "m/s",
+            "ETCS speed accuracy (SUBSET-041 §5.3.1): ±2 km/h below 30 km/h, rising linearly to ±12 km/h at 500 km/h",
+        ),
+    ];
+    let metadata = BTreeMap::from([("study".to_string(), "S4".to_string()), ("case".to_string(), case.to_string())]);
+    let outputs = [COMPARED.as_slice(), &OTHER_OUTPUTS].concat();
+    let setup = Setup {
+        fmu,
+        filter: kind,
+        parameters: &parameters,
+        integers: &[],
+        inputs: &INPUTS,
+        outputs: &outputs,
+        truth: &truth,
+        metadata,
+    };
+    let times: Vec<f64> = (0..recording.n_telegrams()).map(|k| recording.time(k)).collect();
+    master::run(
+        &setup,
+        &times,
+        recording.telegram_interval,
+        |k| {
+            let mut z: Vec<f64> =
+                (0..4).map(|c| if recording.received[c][k] { recording.position[c][k] } else { f64::NAN }).collect();
+            z.push(f64::NAN);
+            z
+        },
+        |k| {
+            let truth = &recording.truth[k];
+            vec![truth.position, truth.speed, super::metrics::etcs_speed_band(truth.speed)]
+        },
+        log,
+        |_| {},
+    )
+}

@@ -1,0 +1,228 @@
+//! S5 in `kalfmu reproduce`, for both truths. The first (our 6-DOF, as the paper has
+//! it): the flight measured once, then every filter through the packaged FMU, checked bit
+//! for bit against the same filter in-process. The second: JSBSim flies the missile on its
+//! own rotating Earth in its own atmosphere, and its Python driver steps the packaged FMU
+//! through fmpy, as a flight simulator would (`truth/s5_jsbsim/fly.py`), once per
+//! filter. For each: the paper's Tables 1 and 2 with each filter's relative error beside
+//! the paper's SVD-CKF, and the time to come back after the change; one log per run and
+//! one comparison recording per truth (`out/s5/`).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use analyzer::report::Options;
+use anyhow::Context;
+use estimator::FilterKind;
+use log_format::read::read_log;
+use log_format::write::{ESTIMATE, TRUTH};
+
+use super::fmu_run::{self, IDENTIFIER};
+use super::study::{run_filter, Tuning};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of};
+use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
+use truth::s5::flight::{measure, simulate, Settings};
+use truth::s5::parameters::{NAMES, PAPER_SVD_CKF_AFTER, PAPER_SVD_CKF_BEFORE};
+
+/// The metrics, the ±2σ coverage and the spectra of the recordings are taken from here
+/// on (s): the filters' start-up left out.
+const SETTLE: f64 = 0.5;
+
+/// One filter's run through the FMU: its coefficients and the true ones, sample by sample.
+struct FilterRun {
+    kind: FilterKind,
+    coefficients: Vec<[f64; 10]>,
+    /// The coefficients in force, sample by sample.
+    truth: Vec<[f64; 10]>,
+    /// What the first truth's runs check besides (the JSBSim driver has no in-process twin).
+    checked: Option<Checked>,
+}
+
+/// A run checked against the same filter in-process.
+struct Checked {
+    /// The largest difference of a coefficient from the in-process run's.
+    difference: f64,
+    /// Measurement rows the FMU's gate rejected.
+    rejected: i32,
+}
+
+/// Runs S5 through its FMU for both truths and prints the tables; `python` runs the
+/// JSBSim driver. Returns the number of failed runs.
+pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) -> anyhow::Result<usize> {
+    let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    let dir = out.join("s5");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let truth = simulate(settings);
+    let measurements = measure(&truth, settings.noise_scale, settings.seed);
+    let tuning = Tuning::new(settings.noise_scale);
+    println!(
+        "S5: tactical-missile force coefficients online, 20 states, 12 measurements every {} s — truth 1: the paper's \
+         6-DOF (flat Earth, ISA), the ten coefficients changing at 10 s; sensor noise as docs/s5-missile.md × {}, seed {}",
+        settings.sample_time, settings.noise_scale, settings.seed
+    );
+    println!(
+        "estimates from {} driven through the fmi importer with the deflections as inputs; logs and the comparison \
+         recording in {}",
+        fmu_dir.join(format!("{IDENTIFIER}.fmu")).display(),
+        dir.display()
+    );
+    let stem = dir.join("6dof");
+    let mut failures = 0;
+    let mut runs = Vec::new();
+    let mut logs = Vec::new();
+    for kind in FilterKind::ALL {
+        let log = log_path(&stem, kind);
+        let through_fmu = fmu_run::run(&fmu, kind, settings, &truth, &measurements, &log).and_then(|counts| {
+            let run = read_log(&log)?;
+            let coefficients = rows_of(run.channel(ESTIMATE)?, NAMES)?;
+            let library = run_filter(kind, &tuning, &truth, &measurements, settings.sample_time, &[])
+                .map_err(anyhow::Error::msg)?;
+            let difference = largest_difference(&coefficients, &library.coefficients)?;
+            logs.push(run);
+            let checked = Some(Checked { difference, rejected: counts.rejected });
+            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked })
+        });
+        match through_fmu {
+            Ok(r) => runs.push(r),
+            Err(e) => {
+                failures += 1;
+                println!("{kind}: FAILED: {e:#}");
+            }
+        }
+    }
+    let recording = match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
+        Ok((_, recording)) => Some(recording),
+        Err(e) => {
+            failures += 1;
+            println!("FAILED to compare the filters: {e}");
+            None
+        }
+    };
+    let before = (settings.sample_time.recip() * 10.0).round() as usize - 1;
+    print_tables(&runs, &truth.time, before);
+    if let Some(recording) = recording {
+        println!("comparison recording, every filter in one: {}", recording.display());
+    }
+    failures += jsbsim(settings, &fmu_dir.join(format!("{IDENTIFIER}.fmu")), &dir, python, before);
+    Ok(failures)
+}
+
+/// The second truth: JSBSim through its Python driver, once per filter; prints the tables
+/// and returns the number of failed runs.
+fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: usize) -> usize {
+    let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("../truth/s5_jsbsim/fly.py");
+    println!(
+        "truth 2: JSBSim (WGS84 rotating Earth, US 1976 atmosphere) flies the same manoeuvre; {} steps the FMU \
+         through fmpy every {} s (seed {})",
+        driver.display(),
+        settings.sample_time,
+        settings.seed
+    );
+    let stem = dir.join("jsbsim");
+    let mut failures = 0;
+    let (mut runs, mut logs) = (Vec::new(), Vec::new());
+    let mut time = Vec::new();
+    for kind in FilterKind::ALL {
+        let log = log_path(&stem, kind);
+        let flown = std::process::Command::new(python)
+            .arg(&driver)
+            .arg(&log)
+            .arg("--fmu")
+            .arg(fmu)
+            .args(["--seed", &settings.seed.to_string()])
+            .args(["--set", &format!("filter={}", filter_enumeration(kind))])
+            .args(["--set", "ukf_alpha=1", "--set", "ukf_beta=2", "--set", "ukf_kappa=0"])
+            .output()
+            .with_context(|| format!("cannot run {} (scripts/setup --tests installs it)", python.display()))
+            .and_then(|output| {
+                anyhow::ensure!(
+                    output.status.success(),
+                    "the JSBSim driver failed: {}",
+                    String::from_utf8_lossy(&output.stderr).lines().last().unwrap_or_default()
+                );
+                let run = read_log(&log)?;
+                let (truth, estimate) = (run.channel(TRUTH)?, run.channel(ESTIMATE)?);
+                let samples = estimate.time.len().min(truth.time.len());
+                time = estimate.time[..samples].to_vec();
+                let (mut coefficients, mut true_values) = (rows_of(estimate, NAMES)?, rows_of(truth, NAMES)?);
+                coefficients.truncate(samples);
+                true_values.truncate(samples);
+                let filter_run = FilterRun { kind, coefficients, truth: true_values, checked: None };
+                logs.push(run);
+                Ok(filter_run)
+            });
+        match flown {
+            Ok(r) => runs.push(r),
+            Err(e) => {
+                failures += 1;
+                println!("{kind} (JSBSim): FAILED: {e:#}");
+            }
+        }
+    }
+    if runs.is_empty() {
+        return failures;
+    }
+    print_tables(&runs, &time, before);
+    match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
+        Ok((_, recording)) => println!("comparison recording, every filter in one: {}", recording.display()),
+        Err(e) => {
+            failures += 1;
+            println!("FAILED to compare the JSBSim runs: {e}");
+        }
+    }
+    failures
+}
+
+/// The paper's Tables 1 and 2 (each filter's relative error at the end of each half beside
+/// the paper's SVD-CKF), the time back within 3 % and 1 % after the change, and, for runs
+/// checked in-process, the gate's rejections and the difference from the library.
+fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) {
+    let end = time.len() - 1;
+    for (title, k, paper) in [
+        ("Table 1, before the change (at 9.995 s)", before, PAPER_SVD_CKF_BEFORE),
+        ("Table 2, after the change (at 20 s)", end, PAPER_SVD_CKF_AFTER),
+    ] {
+        let true_values = runs[0].truth[k];
+        println!("{title}: relative error of each filter's estimate, %");
+        let mut header = format!("{:<6} {:>8} {:>9} {:>7}", "coef", "true", "paper SVD", "err %");
+        for r in runs {
+            let _ = write!(header, " {:>8}", r.kind.name());
+        }
+        println!("{header}");
+        for i in 0..10 {
+            let mut row = format!(
+                "{:<6} {:>8.4} {:>9.4} {:>+7.2}",
+                NAMES[i],
+                true_values[i],
+                paper[i],
+                100.0 * (paper[i] / true_values[i] - 1.0)
+            );
+            for r in runs {
+                let _ = write!(row, " {:>+8.3}", 100.0 * (r.coefficients[k][i] / true_values[i] - 1.0));
+            }
+            println!("{row}");
+        }
+    }
+    let after = runs[0].truth[end];
+    let mut back = format!("{:<26}", "back within 3 % / 1 %, s");
+    let mut rejected = format!("{:<26}", "rows rejected by the gate");
+    let mut difference = format!("{:<26}", "vs library (largest |Δ|)");
+    for r in runs {
+        let within = |bound: f64| {
+            (before + 1..=end)
+                .find(|&k| (k..=end).all(|j| (0..10).all(|i| (r.coefficients[j][i] / after[i] - 1.0).abs() <= bound)))
+                .map_or("never".to_string(), |k| format!("{:.2}", time[k] - 10.0))
+        };
+        let _ = write!(back, " {:>12}", format!("{}/{}", within(0.03), within(0.01)));
+        if let Some(checked) = &r.checked {
+            let _ = write!(rejected, " {:>12}", checked.rejected);
+            let _ = write!(difference, " {:>12.1e}", checked.difference);
+        }
+    }
+    let names: String = runs.iter().map(|r| format!(" {:>12}", r.kind.name())).collect();
+    println!("after the change{}{names}", " ".repeat(10));
+    println!("{back}");
+    if runs.iter().all(|r| r.checked.is_some()) {
+        println!("{rejected}\n{difference}");
+    }
+    println!("paper: SVD-CKF within 3 % and CKF within 5 % of every coefficient, in both tables");
+}

@@ -1,0 +1,202 @@
+//! S2's three cases, and the truth sampled as a vehicle's data acquisition would
+//! record it: the accelerations with their noise, and the wheel–rail forces as an
+//! instrumented wheelset records them.
+//!
+//! **The truth's vehicle is not the catalogue's.** The truth runs the car as it is on the
+//! day: laden (2 t of passengers on the car body), its primary springs 5 % stiffer than the
+//! catalogue (aged rubber) and its dampers' blow-off slope 10 % higher ([`as_built`]).
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::daq::AntiAlias;
+use super::irregularity::{FraSpectrum, Irregularity, RandomProfile};
+use super::parameters::{Track, Vehicle};
+use super::plant::{Settings as PlantSettings, Simulation};
+
+/// The excitations of the paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Case {
+    /// A random track (FRA class 5).
+    Random,
+    /// A corrugation 0.1 mm / 0.5 m.
+    Corrugation,
+    /// A weld, 0.3 mm / 1.0 m plus 0.3 mm / 0.1 m.
+    Weld,
+}
+
+impl Case {
+    /// The three cases in the paper's order.
+    pub const ALL: [Case; 3] = [Case::Random, Case::Corrugation, Case::Weld];
+
+    /// Its name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Case::Random => "random",
+            Case::Corrugation => "corrugation",
+            Case::Weld => "weld",
+        }
+    }
+
+    /// The rail under the run: the front wheel (10.2 m ahead of the car body's centre at the
+    /// start) meets a corrugation 0.5 s in and a weld 1 s in; a random track is sampled over
+    /// the whole run.
+    pub fn irregularity(&self, settings: &Settings) -> Irregularity {
+        let front = Vehicle::ZHAI_PASSENGER.wheel_offsets()[0];
+        match self {
+            Case::Random => {
+                let end = settings.speed * settings.duration + front + 1.0;
+                Irregularity::Random(RandomProfile::sample(&settings.spectrum, settings.seed, -front - 1.0, end))
+            }
+            Case::Corrugation => Irregularity::corrugation(front + 0.5 * settings.speed),
+            Case::Weld => Irregularity::weld(front + settings.speed),
+        }
+    }
+}
+
+/// How to run the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Speed (m/s); 80 km/h.
+    pub speed: f64,
+    /// Sampling rate of the measurements (Hz): 200 (the paper) or 1000 (axle-box data
+    /// acquisition).
+    pub rate: f64,
+    /// Simulated time (s).
+    pub duration: f64,
+    /// Seed of the random track and of the sensor noise.
+    pub seed: u64,
+    /// Sensor noise: white, this fraction of each channel's RMS.
+    pub noise_fraction: f64,
+    /// The random track's spectrum.
+    pub spectrum: FraSpectrum,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            speed: 80.0 / 3.6,
+            rate: 1000.0,
+            duration: 4.0,
+            seed: 1,
+            noise_fraction: 0.02,
+            spectrum: FraSpectrum::CLASS_5,
+        }
+    }
+}
+
+impl Settings {
+    /// Checks that the settings can be run: a positive speed and duration, a rate whose
+    /// sample time is a whole number of the truth's integration steps, a noise fraction of
+    /// at least zero.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [("speed", self.speed), ("rate", self.rate), ("duration", self.duration)];
+        if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0 && v.is_finite())) {
+            return Err(format!("{name} must be positive, got {v}"));
+        }
+        let steps = 1.0 / (self.rate * PlantSettings::default().dt);
+        if steps < 1.0 || (steps - steps.round()).abs() > 1e-9 * steps {
+            return Err(format!(
+                "the sample time 1/{} s must be a whole number of the truth's {} s steps",
+                self.rate,
+                PlantSettings::default().dt
+            ));
+        }
+        if !(self.noise_fraction >= 0.0 && self.noise_fraction.is_finite()) {
+            return Err(format!("the noise fraction must be at least 0, got {}", self.noise_fraction));
+        }
+        Ok(())
+    }
+}
+
+/// The truth at the sample times.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Truth {
+    /// Sample times (s), from 0.
+    pub time: Vec<f64>,
+    /// The seven accelerations as the data acquisition records them, noise-free (m/s², up).
+    pub accelerations: Vec<[f64; 7]>,
+    /// The four wheel–rail forces as an instrumented wheelset's acquisition records them (N).
+    pub contact: Vec<[f64; 4]>,
+}
+
+/// What the sensors recorded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurements {
+    /// The seven accelerations with their noise (m/s², up).
+    pub accelerations: Vec<[f64; 7]>,
+    /// The noise's standard deviation per channel (m/s²).
+    pub noise_std: [f64; 7],
+}
+
+/// The car as it runs: the catalogue vehicle laden with 2 t on the car body, primary springs
+/// 5 % stiffer, damper blow-off slope 10 % higher. [est]
+pub fn as_built() -> Vehicle {
+    let catalogue = Vehicle::ZHAI_PASSENGER;
+    Vehicle {
+        car_body_mass: catalogue.car_body_mass + 2_000.0,
+        // The passengers sit along the car: the pitch inertia grows as a uniform load would.
+        car_body_pitch_inertia: catalogue.car_body_pitch_inertia * (catalogue.car_body_mass + 2_000.0)
+            / catalogue.car_body_mass,
+        primary_stiffness: catalogue.primary_stiffness * 1.05,
+        primary_damping_beyond: catalogue.primary_damping_beyond * 1.10,
+        ..catalogue
+    }
+}
+
+/// Runs the truth of `case` on the as-built car and records it at `settings.rate` as the
+/// vehicle's data acquisition would ([`AntiAlias`]): the accelerations, and the forces as an
+/// instrumented wheelset's acquisition at the same rate would record them. Nothing above
+/// half the rate can be estimated from the samples, and point samples of the forces would
+/// fold it into the band, where no estimate could follow it.
+pub fn simulate(case: Case, settings: &Settings) -> Truth {
+    let plant = PlantSettings { speed: settings.speed, ..PlantSettings::default() };
+    let mut sim = Simulation::new(as_built(), Track::BALLASTED, case.irregularity(settings), &plant);
+    let daq = AntiAlias::new(plant.dt, settings.rate);
+    let per_sample = (1.0 / (settings.rate * plant.dt)).round() as usize;
+    let samples = (settings.duration * settings.rate).round() as usize;
+    // The filter reaches half its length past the last sample.
+    let steps = samples * per_sample + daq.half_length();
+    let mut signals = Vec::with_capacity(steps + 1);
+    for step in 0..=steps {
+        if step > 0 {
+            sim.step();
+        }
+        let sample = sim.sample();
+        signals.push((sample.accelerations, sample.contact));
+    }
+    let recorded = |k: usize, value: &dyn Fn(usize) -> f64| daq.at(k * per_sample, value);
+    Truth {
+        time: (0..=samples).map(|k| k as f64 / settings.rate).collect(),
+        accelerations: (0..=samples).map(|k| std::array::from_fn(|c| recorded(k, &|i| signals[i].0[c]))).collect(),
+        contact: (0..=samples).map(|k| std::array::from_fn(|j| recorded(k, &|i| signals[i].1[j]))).collect(),
+    }
+}
+
+/// Adds seeded white noise of `fraction` of each channel's RMS to the accelerations.
+pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
+    let n = truth.accelerations.len().max(1) as f64;
+    let mut noise_std = [0.0; 7];
+    for a in &truth.accelerations {
+        for (s, v) in noise_std.iter_mut().zip(a) {
+            *s += v * v;
+        }
+    }
+    noise_std = noise_std.map(|s| fraction * (s / n).sqrt());
+    // Its own stream: the track's seed must not also draw the noise.
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F5E_5501);
+    let accelerations = truth
+        .accelerations
+        .iter()
+        .map(|a| {
+            let mut z = *a;
+            for (zi, s) in z.iter_mut().zip(noise_std) {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                *zi += s * e;
+            }
+            z
+        })
+        .collect();
+    Measurements { accelerations, noise_std }
+}

@@ -1,0 +1,88 @@
+//! S5's flight as the paper flies it: the missile of the study, the standard manoeuvre,
+//! sampled every 5 ms with each sensor's noise.
+
+use estimator::models::Airframe;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::manoeuvre::Manoeuvre;
+use super::parameters::{start, AFTER, BEFORE, SENSOR_STD};
+use super::plant::{Flight, Motion};
+
+/// How to run the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Sample time (s): 5 ms, the paper's T.
+    pub sample_time: f64,
+    /// RK4 steps of the truth per sample.
+    pub truth_substeps: usize,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// The sensors' noise scaled by this (1: [`SENSOR_STD`]).
+    pub noise_scale: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self { sample_time: 0.005, truth_substeps: 10, seed: 1, noise_scale: 1.0 }
+    }
+}
+
+/// The truth at the sample times.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Truth {
+    /// Sample times (s), from 0.
+    pub time: Vec<f64>,
+    /// The motion states.
+    pub motion: Vec<Motion>,
+    /// The coefficients in force over each sample interval.
+    pub coefficients: Vec<[f64; 10]>,
+    /// The deflections held over each sample interval (rad).
+    pub deflections: Vec<[f64; 3]>,
+    /// The twelve measurements, noise-free.
+    pub measurements: Vec<[f64; 12]>,
+}
+
+/// The missile of the study flying the standard manoeuvre.
+pub fn flight() -> Flight {
+    Flight { airframe: Airframe::tactical_missile(), coefficients: [BEFORE, AFTER], manoeuvre: Manoeuvre::standard() }
+}
+
+/// Flies the study's flight and samples it.
+pub fn simulate(settings: &Settings) -> Truth {
+    simulate_flight(&flight(), settings)
+}
+
+/// Flies `flight` from the study's start and samples it.
+pub fn simulate_flight(flight: &Flight, settings: &Settings) -> Truth {
+    let motion = flight.fly(&start(), settings.sample_time, settings.truth_substeps);
+    let mut truth = Truth::default();
+    for (k, x) in motion.into_iter().enumerate() {
+        let c = *flight.coefficients_over(k, settings.sample_time);
+        let delta = flight.manoeuvre.held(k, settings.sample_time);
+        let mut z = [0.0; 12];
+        flight.airframe.measure(&x, &c, &delta, &mut z);
+        truth.time.push(k as f64 * settings.sample_time);
+        truth.motion.push(x);
+        truth.coefficients.push(c);
+        truth.deflections.push(delta);
+        truth.measurements.push(z);
+    }
+    truth
+}
+
+/// Adds each sensor's seeded white noise (`SENSOR_STD` × `scale`).
+pub fn measure(truth: &Truth, scale: f64, seed: u64) -> Vec<[f64; 12]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5555_0005);
+    truth
+        .measurements
+        .iter()
+        .map(|z| {
+            std::array::from_fn(|i| {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                z[i] + scale * SENSOR_STD[i] * e
+            })
+        })
+        .collect()
+}
