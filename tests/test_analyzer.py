@@ -155,13 +155,13 @@ def assert_band(json_band, expected):
 
 
 @pytest.fixture(scope="module")
-def s1_log(scenarios_bin, s1_fmu, tmp_path_factory):
+def s1_log(kalfmu_bin, s1_fmu, tmp_path_factory):
     """The example's log of the FMU over 5 s of stiffness/random (seed 1, 2 %
     noise), and what it logged."""
     tmp = tmp_path_factory.mktemp("s1log")
     table = tmp / "s1.csv"
     subprocess.run(
-        [str(scenarios_bin), "s1-export", "--case", "stiffness/random", "--duration", "5"]
+        [str(kalfmu_bin), "s1-export", "--case", "stiffness/random", "--duration", "5"]
         + ["--seed", "1", "--noise", "0.02", "--out", str(table)],
         check=True,
     )

@@ -1,25 +1,32 @@
-"""`kalfmu reproduce --study s2`: the main job's S2 table, through the packaged FMU.
+"""`kalfmu reproduce --study s2`: the main job's S2 table, through the packaged FMU, read
+from the `table.json` it writes beside its logs.
 
-- It runs every filter on every case and prints, per wheelset, the SRCKF's figures beside
-  the paper's, and per filter the worst wheel.
+- It runs every filter on every case and gives, per wheelset, every filter's figures
+  beside the paper's SRCKF figures (wheelset 1), and per filter the worst wheel.
 - The FMU driven by a master gives what the same filter gives in-process on the same
-  measurements, to the last bit (the "vs library" column is 0 for every run).
+  measurements, to the last bit (the "vs library" difference is 0 for every run).
 - It leaves one log per run, which the analyzer reads and whose forces are those of the
   FMU at their own time stamps, and one comparison per case (JSON and recording).
-- A weld's peak force is found within 5 % (the issue's goal, and a check that the column
+- A weld's peak force is found within 5 % (the issue's goal, and a check that the figure
   measures something: a filter that missed the weld would fail it).
 """
 
 from __future__ import annotations
 
 import json
-import re
 import subprocess
 
 import pytest
 
 FILTERS = ["CKF", "SRCKF", "SVD-CKF", "UKF", "EKF"]
 CASES = ["random", "corrugation", "weld"]
+# The paper's SRCKF figures for wheelset 1: correlation, running-RMSE mean (kN) and
+# variance (kN²).
+PAPER = {
+    "random": {"correlation": 0.988, "running_rmse_mean": 0.175, "running_rmse_variance": 0.027},
+    "corrugation": {"correlation": 0.999, "running_rmse_mean": 0.142, "running_rmse_variance": 0.028},
+    "weld": {"correlation": 0.969, "running_rmse_mean": 0.101, "running_rmse_variance": 0.004},
+}
 
 
 @pytest.fixture(scope="module")
@@ -31,45 +38,57 @@ def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
         text=True,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    return out, proc.stdout
+    return out, json.loads((out / "s2" / "table.json").read_text())
 
 
-def rows(stdout: str, title: str) -> list[list[str]]:
-    """The rows of the table that follows the line starting with `title`."""
-    lines = stdout.splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith(title)) + 2
-    table = []
-    for line in lines[start:]:
-        if not line.split() or line.split()[0] not in CASES:
-            break
-        table.append(line.split())
-    return table
+def runs(table: dict) -> dict[tuple[str, str], dict]:
+    """Every (case, filter) run of the table."""
+    return {(c["case"], f["filter"]): f for c in table["cases"] for f in c["filters"]}
 
 
-def test_the_srckf_table_has_every_wheel_of_every_case_beside_the_paper(reproduced):
-    _, stdout = reproduced
-    table = rows(stdout, "SRCKF (the paper's filter)")
-    assert [(r[0], r[1]) for r in table] == [(c, str(w)) for c in CASES for w in range(1, 5)]
-    # The paper's wheelset-1 correlations sit beside ours.
-    papers = {r[0]: r[3] for r in table if r[1] == "1"}
-    assert papers == {"random": "0.988", "corrugation": "0.999", "weld": "0.969"}
-    for r in table:
-        assert -1.0 <= float(r[2]) <= 1.0
+def test_the_table_has_every_wheel_of_every_filter_and_case_beside_the_paper(reproduced):
+    _, table = reproduced
+    assert table["study"] == "S2"
+    assert table["units"]["running_rmse_mean"] == "kN" and table["units"]["running_rmse_variance"] == "kN²"
+    assert [c["case"] for c in table["cases"]] == CASES
+    for case in table["cases"]:
+        assert case["failure"] is None, case
+        # The paper's wheelset-1 figures sit beside ours.
+        assert case["paper"] == PAPER[case["case"]]
+        assert [f["filter"] for f in case["filters"]] == FILTERS
+    for (case, kind), run in runs(table).items():
+        assert run["failure"] is None, (case, kind, run)
+        assert [w["wheelset"] for w in run["wheels"]] == [1, 2, 3, 4]
+        for w in run["wheels"]:
+            assert -1.0 <= w["correlation"] <= 1.0, (case, kind, w)
+            assert w["running_rmse_mean"] > 0 and w["running_rmse_variance"] >= 0
+            assert w["rmse_over_dynamic_std"] == pytest.approx(w["rmse"] / w["dynamic_std"])
+            assert 0.0 <= w["two_sigma_coverage"] <= 1.0
+
+
+def test_the_worst_wheel_is_the_worst_of_the_four(reproduced):
+    _, table = reproduced
+    for (case, kind), run in runs(table).items():
+        wheels, worst = run["wheels"], run["worst_wheel"]
+        assert worst["correlation_min"] == min(w["correlation"] for w in wheels), (case, kind)
+        assert worst["rmse_over_dynamic_std_max"] == max(w["rmse_over_dynamic_std"] for w in wheels), (case, kind)
+        assert worst["two_sigma_coverage_min"] == min(w["two_sigma_coverage"] for w in wheels), (case, kind)
+        assert worst["after_step_correlation_min"] == min(w["after_step_correlation"] for w in wheels), (case, kind)
 
 
 def test_every_filter_through_the_fmu_equals_the_library_in_process_to_the_last_bit(reproduced):
-    _, stdout = reproduced
-    table = rows(stdout, "every filter, the worst")
-    assert sorted((r[0], r[1]) for r in table) == sorted((c, f) for c in CASES for f in FILTERS)
-    for r in table:
-        assert float(r[-1]) == 0.0, r
+    _, table = reproduced
+    differences = {key: run["fmu_vs_in_process_max_abs_difference"] for key, run in runs(table).items()}
+    assert differences == {(c, f): 0.0 for c in CASES for f in FILTERS}
 
 
 def test_the_weld_peak_is_found_within_five_percent_by_the_srckf(reproduced):
-    _, stdout = reproduced
-    weld = [r for r in rows(stdout, "SRCKF (the paper's filter)") if r[0] == "weld"]
-    errors = [float(re.sub("[^0-9.+-]", "", r[9])) for r in weld]
+    _, table = reproduced
+    errors = [w["weld_peak_error"] for w in runs(table)[("weld", "SRCKF")]["wheels"]]
     assert len(errors) == 4 and all(abs(e) <= 5.0 for e in errors), errors
+    # The other cases have no weld, and so no peak error.
+    for case in ["random", "corrugation"]:
+        assert {w["weld_peak_error"] for w in runs(table)[(case, "SRCKF")]["wheels"]} == {None}
 
 
 def test_each_run_is_logged_and_each_case_compared(reproduced, analyzer_bin, tmp_path):

@@ -1,20 +1,24 @@
-"""`kalfmu reproduce --study s4 --quick`: S4's table through the packaged FMU.
+"""`kalfmu reproduce --study s4 --quick`: S4's table through the packaged FMU, read from
+the `table.json` it writes beside its logs.
 
 - Every filter kind runs through the FMU and gives, to the last bit, what the same filter
   gives in-process on the same telegrams (position, speed, offsets, weights).
-- The table has the raw average, the paper's pipeline and ours: ours has the smallest
-  mean and largest speed errors and position error; every spike, slot slip and offset
-  is caught, with false alarms under 0.1 % of the channel-telegrams.
+- The table has the raw average, the paper's pipeline and ours, and the paper's figures:
+  ours has the smallest mean and largest speed errors and position error; every spike,
+  slot slip and offset is caught, with false alarms under 0.1 % of the
+  channel-telegrams.
 - Each run is logged, the analyzer reads it, and the runs are compared in one recording.
 """
 
 from __future__ import annotations
 
+import json
 import subprocess
 
 import pytest
 
 FILTERS = ["CKF", "SRCKF", "SVD-CKF", "UKF", "EKF"]
+ESTIMATORS = ["raw_average", "paper_fused", "paper_fused_ukf", "ours"]
 
 
 @pytest.fixture(scope="module")
@@ -26,33 +30,61 @@ def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
         text=True,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    return out, proc.stdout
+    return out, json.loads((out / "s4" / "table.json").read_text())
 
 
-def row(stdout: str, name: str) -> list[float]:
-    line = next(line for line in stdout.splitlines() if line[:22].strip() == name)  # the label column
-    return [float(v.rstrip("%")) for v in line[len(name) :].split() if v != "—"]
+@pytest.fixture(scope="module")
+def paper_run(reproduced) -> dict:
+    """The paper's test run, the only profile with --quick."""
+    _, table = reproduced
+    assert [p["profile"] for p in table["profiles"]] == ["paper"]
+    return table["profiles"][0]
 
 
-def test_every_filter_through_the_fmu_equals_the_library_in_process(reproduced):
-    _, stdout = reproduced
-    line = next(line for line in stdout.splitlines() if line.startswith("vs library"))
-    values = {name: float(line.split(f" {name}: ")[1].split()[0]) for name in FILTERS}
-    assert values == {name: 0.0 for name in FILTERS}, line
+def test_the_table_has_the_papers_figures_and_every_estimator(reproduced, paper_run):
+    _, table = reproduced
+    assert table["study"] == "S4" and table["seed"] == 1
+    assert table["paper"] == {
+        "mean_abs_error_reduction_from_raw": 0.326,
+        "raw_average_speed_range": 11.09,
+        "paper_fused_ukf_speed_range": 5.62,
+    }
+    assert table["units"]["mean_abs_error"] == "m/s" and table["units"]["position_max_abs_error"] == "m"
+    assert paper_run["compared_filter"] == "SRCKF"
+    comparison = paper_run["comparison"]
+    for name in ESTIMATORS:
+        scores = comparison[name]
+        assert 0.0 <= scores["in_etcs_band_fraction"] <= 1.0, name
+        # The paper's speed range is of the estimate, beside the truth's 5.6 m/s.
+        assert scores["speed"]["true_range"] == pytest.approx(5.6)
+    assert comparison["raw_average"]["mean_abs_error_reduction_from_raw"] == 0.0
 
 
-def test_ours_beats_the_raw_average_and_the_papers_pipeline(reproduced):
-    _, stdout = reproduced
-    raw, filtered, ours = row(stdout, "raw average"), row(stdout, "paper: fused + UKF"), row(stdout, "ours")
-    # mean |e|, (vs raw), max |e|, speed range, e range, position |e| max, in band.
-    assert ours[0] < filtered[0] < raw[0]
-    assert ours[2] < filtered[2] < raw[1]
-    assert ours[5] < raw[4]
+def test_every_filter_through_the_fmu_equals_the_library_in_process(paper_run):
+    differences = {f["filter"]: f["fmu_vs_in_process_max_abs_difference"] for f in paper_run["filters"]}
+    assert differences == {name: 0.0 for name in FILTERS}
+    assert all(f["failure"] is None for f in paper_run["filters"])
+
+
+def test_ours_beats_the_raw_average_and_the_papers_pipeline(paper_run):
+    c = paper_run["comparison"]
+    raw, filtered, ours = c["raw_average"], c["paper_fused_ukf"], c["ours"]
+    speed = {name: c[name]["speed"] for name in ESTIMATORS}
+    assert speed["ours"]["mean_abs_error"] < speed["paper_fused_ukf"]["mean_abs_error"] < speed["raw_average"]["mean_abs_error"]
+    assert speed["ours"]["max_abs_error"] < speed["paper_fused_ukf"]["max_abs_error"] < speed["raw_average"]["max_abs_error"]
+    assert ours["position_max_abs_error"] < raw["position_max_abs_error"]
+    # Its reduction of the mean speed error beats the paper's own figure for its pipeline.
+    assert ours["mean_abs_error_reduction_from_raw"] > filtered["mean_abs_error_reduction_from_raw"]
+    ours_detected = {k["name"]: k for k in c["our_detection"]["kinds"]}
     for kind in ["spike", "slot slip", "offset"]:
-        injected, _, detected = row(stdout, kind)
-        assert detected == injected, kind
-    paper_false, our_false = row(stdout, "false alarms")
-    assert our_false < 0.1 < paper_false
+        assert ours_detected[kind]["injected"] > 0, kind
+        assert ours_detected[kind]["detected"] == ours_detected[kind]["injected"], kind
+    paper_false = c["paper_detection"]["false_alarm_fraction"]
+    our_false = c["our_detection"]["false_alarm_fraction"]
+    assert our_false < 0.001 < paper_false
+    detection = c["our_detection"]
+    assert our_false == detection["false_alarms"] / detection["channel_telegrams"]
+    assert detection["channel_telegrams"] == 4 * paper_run["telegrams"]
 
 
 def test_each_run_is_logged_and_compared_in_one_recording(reproduced, analyzer_bin):

@@ -5,6 +5,52 @@
 //! prints our figures beside the papers'. Each study's table is its own
 //! module's (`s1::reproduce`, `s2::reproduce`, …); studies not built yet are
 //! listed as such, never skipped silently.
+//!
+//! # The tables as JSON
+//!
+//! Each study also writes the figures of the table it prints as `<out>/<study>/table.json`
+//! (`out/s1/table.json`, `out/s2/…`, `out/s4/…`, `out/s5/…`), beside its logs, so that
+//! scripts and tests need not parse the printed text. The numbers are full precision, not
+//! the printed digits; a figure that is not a number is `null`, and so is one a run could
+//! not give (its entry's `failure` then says why). Every file has `study` (`"S1"`, …) and
+//! `units`, the unit of each dimensional field by name (fields it does not list are
+//! dimensionless: correlations, fractions, counts). Filter kinds are named as printed
+//! (`CKF`, `SRCKF`, `SVD-CKF`, `UKF`, `EKF`).
+//!
+//! - **S1** (`studies::s1::reproduce::Table`): `settings` (`duration`, `rate`,
+//!   `noise_fraction`, `seed`, `rmse_window`); `cases[]`, each with `case`, `paper`
+//!   (`correlation`, `running_rmse_peak`, `running_rmse_max_converged`), `failure`, and
+//!   `filters[]`: `filter`, `failure`, `feedthrough` (`correlation`, `rmse_converged`,
+//!   `running_rmse_peak`, `running_rmse_max_converged`, `convergence_time`,
+//!   `psd_agreement_band` `[low, high]`) and `after_step` (`correlation`,
+//!   `rmse_converged`).
+//! - **S2** (`studies::s2::reproduce::Table`): `settings`; `cases[]`, each with `case`,
+//!   `paper` (wheelset 1: `correlation`, `running_rmse_mean`, `running_rmse_variance`),
+//!   `failure`, and `filters[]` (every kind, not only the SRCKF the first table prints):
+//!   `filter`, `failure`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference`,
+//!   `worst_wheel` (the second table's columns: `correlation_min`,
+//!   `rmse_over_dynamic_std_max`, `weld_peak_error_max_abs`, `two_sigma_coverage_min`,
+//!   `after_step_correlation_min`) and `wheels[]` (`wheelset` 1–4, `correlation`, `rmse`,
+//!   `running_rmse_mean`, `running_rmse_variance`, `dynamic_std`,
+//!   `rmse_over_dynamic_std`, `weld_peak_error`, `psd_agreement_band`,
+//!   `two_sigma_coverage`, `after_step_correlation`).
+//! - **S4** (`studies::s4::reproduce::Table`): `seed`; `paper`
+//!   (`mean_abs_error_reduction_from_raw`, `raw_average_speed_range`,
+//!   `paper_fused_ukf_speed_range`); `profiles[]`, each with `profile`, `duration`,
+//!   `telegrams`, `filters[]` (`filter`, `failure`, `fmu_vs_in_process_max_abs_difference`),
+//!   `compared_filter` and `comparison`: `raw_average`, `paper_fused`, `paper_fused_ukf`
+//!   and `ours`, each with `speed` (`mean_abs_error`, `max_abs_error`, `speed_range`,
+//!   `error_range`, `true_range`, …), `position_max_abs_error`, `in_etcs_band_fraction`
+//!   and `mean_abs_error_reduction_from_raw`; `paper_detection` and `our_detection`, each
+//!   with `kinds[]` (`name`, `injected`, `detected`), `false_alarms`,
+//!   `channel_telegrams` and `false_alarm_fraction`.
+//! - **S5** (`studies::s5::reproduce::Table`): `settings`, `paper_claim`; `truths[]`
+//!   (`6dof`, then `jsbsim`), each with `truth`, `failures[]` (`filter`, `failure`),
+//!   `tables[]` (`table` `Table 1` or `Table 2`, `time`, `coefficients[]`: `coefficient`,
+//!   `true_value`, `paper_svd_ckf`, `paper_svd_ckf_relative_error`, `relative_error` by
+//!   filter kind) and `filters[]` (`filter`, `back_within_3_percent`,
+//!   `back_within_1_percent`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference`; the
+//!   last two for the first truth only).
 
 use std::path::PathBuf;
 

@@ -301,7 +301,7 @@ fn a_saved_memory_continues_exactly_and_a_corrupt_one_is_refused() {
         let mut fresh = supervisor();
         assert!(fresh.load(&words[1..]).is_err(), "truncated");
         let mut flag = words.clone();
-        flag[2] = 7; // channel 0's fault flag
+        flag[5 + 2] = 7; // channel 0's fault flag, after the header's five words
         assert!(fresh.load(&flag).is_err(), "a flag of 7");
         assert_eq!(fresh.rejected(), 0, "a refused memory changes nothing");
     }

@@ -8,7 +8,7 @@
 //! are NULL, garbage, truncated or foreign, unknown log categories —
 //! interleaved with legal calls.
 //!
-//! A model of the FMI 2.0 CS state machine (the table in FMI_NOTES.md) and of
+//! A model of the FMI 2.0 CS state machine (the state table of the FMI 2.0 standard, `[FMI2]` §4.2.4) and of
 //! the variable table predicts every status. Checked after every call:
 //! * no crash, no hang (a watchdog aborts a sequence that stops progressing),
 //!   no panic caught inside the FMU ("internal error");

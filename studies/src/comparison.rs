@@ -1,6 +1,8 @@
 //! What every study's part of `reproduce` shares: a case's runs compared and recorded, an
-//! FMU's outputs set against the same filter in-process, and where the logs go.
+//! FMU's outputs set against the same filter in-process, where the logs go, and the table's
+//! figures written as JSON.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use analyzer::compare::{compare_runs, Comparison};
@@ -45,4 +47,24 @@ pub fn largest_difference<const N: usize>(a: &[[f64; N]], b: &[[f64; N]]) -> any
 pub fn log_path(stem: &Path, kind: estimator::FilterKind) -> PathBuf {
     let case = stem.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     stem.with_file_name(format!("{case}_{}.mcap", kind.name().to_lowercase().replace('-', "")))
+}
+
+/// The name of the file in each study's output directory that holds the figures of the
+/// table `reproduce` prints (`out/s1/table.json`, …; see the `kalfmu reproduce` docs).
+pub const TABLE_FILE: &str = "table.json";
+
+/// Writes a study's table, `table`, as pretty-printed JSON to [`TABLE_FILE`] in `dir`;
+/// returns the file's path. A figure that is not a number (NaN, ±∞) is written `null`.
+pub fn write_table(dir: &Path, table: &impl serde::Serialize) -> anyhow::Result<PathBuf> {
+    let path = dir.join(TABLE_FILE);
+    let mut text = serde_json::to_string_pretty(table).context("cannot serialise the table")?;
+    text.push('\n');
+    std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(path)
+}
+
+/// The `units` object of a table: each dimensional field's name and its unit. Fields it
+/// does not list are dimensionless (correlations, fractions) or counts.
+pub fn units(pairs: &[(&'static str, &'static str)]) -> BTreeMap<&'static str, &'static str> {
+    pairs.iter().copied().collect()
 }

@@ -20,7 +20,7 @@ fn the_static_wheel_loads_are_the_weight_shares() {
     let v = Vehicle::ZHAI_PASSENGER;
     let p0 = (v.car_body_mass + 2.0 * v.bogie_mass + 4.0 * v.wheelset_mass) * G / 8.0;
     assert!((v.static_wheel_load() - p0).abs() < 1e-9 * p0);
-    assert!((p0 - 55.9e3).abs() < 0.1e3, "VEHICLE_TRACK.md: 55.9 kN, not {p0}");
+    assert!((p0 - 55.9e3).abs() < 0.1e3, "Zhai's car: 55.9 kN, not {p0}");
     let sim = simulation(Irregularity::None, &Settings::default());
     for (j, p) in sim.contact().iter().enumerate() {
         assert!((p - p0).abs() < 1e-9 * p0, "wheel {j}: {p} N against {p0} N");
@@ -70,9 +70,9 @@ fn peak_frequency(x: &[f64], dt: f64, lo: f64, hi: f64) -> f64 {
 }
 
 /// Car-body bounce: 0.8–1.5 Hz for passenger cars (Iwnicki, Handbook of Railway Vehicle
-/// Dynamics, 2006, ch. 11; `SCENARIOS.md` gives about 1.2 Hz for this set). P2, the
+/// Dynamics, 2006, ch. 11; about 1.2 Hz for this set). P2, the
 /// unsprung masses bouncing on the track: 35–55 Hz for support stiffness 60–150 MN/m
-/// (Zhai; `VEHICLE_TRACK.md`), 30–90 Hz in general (Jenkins et al., 1974).
+/// (`[Zhai2015]`), 30–90 Hz in general (`[Jenkins1974]`).
 #[test]
 fn the_car_body_bounce_and_the_p2_resonance_fall_in_the_published_ranges() {
     let settings = Settings { speed: 0.0, ..Settings::default() };

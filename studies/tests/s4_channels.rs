@@ -1,4 +1,4 @@
-//! S4's channel simulator does what `docs/s4-maglev.md` says: the paper's run reaches
+//! S4's channel simulator does what `docs/studies/s4.md` says: the paper's run reaches
 //! 5.6 m/s and stops at 506.4 m, a profile's speed is the derivative of its position, the
 //! high-speed run keeps its limits; without faults the channels err by their noise alone;
 //! every fault shows exactly as its record says and comes at about its rate; a seed
@@ -210,7 +210,7 @@ fn every_fault_shows_exactly_as_its_record_says_and_nothing_else_differs() {
     }
 }
 
-/// The telegrams where a fault may start, per `docs/s4-maglev.md`: not the first, and not
+/// The telegrams where a fault may start, per `docs/studies/s4.md`: not the first, and not
 /// one taken by the fault before (a burst's own and the clean one after it, the clean one
 /// after a spike).
 fn free_telegrams(recording: &Recording, channel: Channel) -> Vec<bool> {

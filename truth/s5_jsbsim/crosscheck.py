@@ -1,4 +1,4 @@
-"""JSBSim's flight against the equations of docs/s5-missile.md (flat non-rotating Earth,
+"""JSBSim's flight against the equations of docs/studies/s5.md (flat non-rotating Earth,
 g = 9.8 m/s², ISA), integrated here by RK4 from the same start through the same
 manoeuvre: how far the two truths of S5 part, and why.
 
@@ -39,7 +39,7 @@ EARTH_RADIUS = 6_356_766.0  # m, US 1976's radius for geopotential altitude
 
 
 def isa_density(h: float) -> float:
-    """The doc's ISA (VEHICLE_TRACK.md; estimator/src/models/atmosphere.rs) at h taken as
+    """The doc's ISA ([ISO2533]; estimator/src/models/atmosphere.rs) at h taken as
     geopotential altitude, to 20 km and the lapse of the next layer beyond."""
     if h < 11_000.0:
         t = 288.15 - 0.0065 * h
@@ -60,7 +60,7 @@ def us76_density(h: float) -> float:
 
 
 def derivative(x, c, d, g: float, density) -> list[float]:
-    """docs/s5-missile.md's equations: x = (Vx, Vy, Vz, φ, ψ, γ, h, ωx, ωy, ωz)."""
+    """docs/studies/s5.md's equations: x = (Vx, Vy, Vz, φ, ψ, γ, h, ωx, ωy, ωz)."""
     vx, vy, vz, phi, _psi, gamma, h, wx, wy, wz = x
     v = math.sqrt(vx * vx + vy * vy + vz * vz)
     alpha, beta = math.atan2(-vy, vx), math.asin(vz / v)

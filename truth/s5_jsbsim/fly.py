@@ -1,4 +1,4 @@
-"""Study S5's second truth: JSBSim flies the tactical missile of docs/s5-missile.md
+"""Study S5's second truth: JSBSim flies the tactical missile of docs/studies/s5.md
 (`missile.xml`, beside this file), and every 5 ms this driver hands JSBSim's outputs —
 the twelve measurements in the paper's axes and units, with seeded white noise — and
 the three deflections to an estimator, as a flight simulator would, then logs the run in
@@ -55,7 +55,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from mcap_example import KalfmuLog, Signal  # noqa: E402  (the log writer, shared with the example)
 
 # --------------------------------------------------------------------------
-# The study's numbers (docs/s5-missile.md)
+# The study's numbers (docs/studies/s5.md)
 # --------------------------------------------------------------------------
 
 FT = 0.3048  # m per ft

@@ -1,4 +1,4 @@
-//! Fusion of redundant readings of one quantity, after Study S4's seed paper:
+//! Fusion of redundant readings of one quantity, after study S4's paper `[MaglevUKF2024]`:
 //! 基于加权融合UKF的常导高速磁浮列车测速定位算法 (weighted-fusion UKF speed
 //! and position for normal-conducting high-speed maglev), which fuses the speeds
 //! of four redundant PRW position channels at every 20 ms telegram.

@@ -1,8 +1,8 @@
-//! Study S5: a tactical missile's rigid-body 6-DOF in body axes (eq. (1) of the seed
-//! `004_…`) with its ten force coefficients (eq. (3)) as states, identified online from
+//! Study S5: a tactical missile's rigid-body 6-DOF in body axes (eq. (1) of
+//! `[Jiang2024]`) with its ten force coefficients (eq. (3)) as states, identified online from
 //! twelve measurements (eq. (2)). The conventions — axes x forward, y up, z right; the
 //! drag read along +x; the overloads as accelerometers read them — are those of
-//! `docs/s5-missile.md`, where each departure from the printed equations is argued.
+//! `docs/studies/s5.md`, where each departure from the printed equations is argued.
 
 use super::atmosphere;
 use crate::model::{Observation, VectorField};
@@ -62,7 +62,7 @@ pub struct Air {
 
 impl Airframe {
     /// The seed's missile (mass, area, length) with the project's inertias and moment
-    /// model (`VEHICLE_TRACK.md`, estimates).
+    /// model (our estimates, `docs/studies/s5.md`).
     pub fn tactical_missile() -> Self {
         Self {
             mass: 980.0,

@@ -1,6 +1,6 @@
 //! Study S1: two masses in series, `ground —(k₁, c₁)— m₁ —(k₂, c₂)— m₂`, with the
-//! unknown load `F` on the free mass `m₂` (the reading adopted in `SCENARIOS.md`;
-//! the paper's figure is missing). One element of the ground link is nonlinear.
+//! unknown load `F` on the free mass `m₂` (our reading of `[Gong2024]`,
+//! whose figure of the chain is missing). One element of the ground link is nonlinear.
 //!
 //! ```text
 //! m₁·z̈₁ = −F_k1(z₁) − F_c1(ż₁) + k₂·(z₂ − z₁) + c₂·(ż₂ − ż₁)

@@ -1,6 +1,6 @@
 //! A continuous, odd, piecewise-linear element law with three slopes — the
-//! nonlinear spring or damper of study S1 (eqs. (2), (3) as corrected in
-//! `SCENARIOS.md`), and the nonlinear primary damper of study S2 (two slopes).
+//! nonlinear spring or damper of study S1 (eqs. (2), (3) of `[Gong2024]` in their
+//! continuous form, `docs/studies/s1.md`), and the nonlinear primary damper of study S2 (two slopes).
 //!
 //! ```text
 //! F(b) = k₁·b                                               |b| ≤ δ₁

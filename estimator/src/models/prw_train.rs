@@ -1,5 +1,5 @@
 //! Study S4: a maglev train's motion along the guideway and its four long-stator (PRW)
-//! position channels, each with its own offset (seed `003_…`; `docs/s4-maglev.md`).
+//! position channels, each with its own offset (`[MaglevUKF2024]`; `docs/studies/s4.md`).
 //!
 //! The state is the reference point's position `s`, speed `v` and acceleration `a`, a
 //! constant acceleration driven by white jerk (the continuous Wiener-process acceleration
@@ -16,7 +16,7 @@
 //!
 //! **Why the offsets are states.** Each channel reads its sensor's position, the
 //! reference position plus a known lever, plus an installation offset of 10–50 mm
-//! (`VEHICLE_TRACK.md`) and, after a slot slip, ±86 mm more, against a noise of 1.5 mm. A
+//! (our estimate, `docs/studies/s4.md`) and, after a slot slip, ±86 mm more, against a noise of 1.5 mm. A
 //! model without them would see a channel 10–50 mm away from the others, 7–30σ: the
 //! innovation gate would reject whole channels for good, or, with `R` opened to let them
 //! in, the four would be averaged into one 30 mm-wide blur. As states, the differences

@@ -84,7 +84,7 @@ impl VerticalVehicle {
         }
     }
 
-    /// Half of Zhai's high-speed passenger car (`VEHICLE_TRACK.md`), its primary damper
+    /// Half of Zhai's high-speed passenger car (`[Zhai2015]`), its primary damper
     /// blowing off to a third of its slope beyond 0.1 m/s: the catalogue vehicle of study S2.
     pub fn zhai_passenger() -> Self {
         let damper = PiecewiseLinear::new([6e3, 2e3, 2e3], [0.1, 0.1]).expect("a valid damper law");

@@ -102,7 +102,7 @@ pub(super) fn descriptor() -> Descriptor {
         v.push(Variable::output(std, "N", Role::EstimateStd(state), std_description));
     }
     let positive = |var: Variable| var.bounded(Some(0.0), None);
-    // Zhai's high-speed passenger car, whole (VEHICLE_TRACK.md); the primary damper's
+    // Zhai's high-speed passenger car, whole ([Zhai2015]); the primary damper's
     // blow-off slope and knee are the project's estimates.
     v.extend([
         positive(Variable::parameter("car_body_mass", "kg", CAR_BODY_MASS, "car body mass (whole)")),

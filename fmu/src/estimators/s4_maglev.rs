@@ -23,7 +23,7 @@ struct ChannelVariables {
     /// Its sensor noise parameter.
     sensor_std: &'static str,
     /// The lever parameter and its default (m: head ahead of the reference point, tail
-    /// behind, 50 m apart [est: `docs/s4-maglev.md`]).
+    /// behind, 50 m apart [est: `docs/studies/s4.md`]).
     lever: (&'static str, f64),
     /// The offset state's output and its σ.
     offset: (&'static str, &'static str),

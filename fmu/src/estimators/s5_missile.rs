@@ -1,6 +1,6 @@
 //! The S5 missile estimator: the ten force coefficients of a tactical missile (eq. (4) of
-//! the seed `004_…`) identified online with its rigid-body motion from twelve flight
-//! measurements, the rudder deflections known (study S5, `docs/s5-missile.md`). The
+//! `[Jiang2024]`) identified online with its rigid-body motion from twelve flight
+//! measurements, the rudder deflections known (study S5, `docs/studies/s5.md`). The
 //! estimation model is the library's `Missile6Dof`: 20 states, the motion
 //! `Vx, Vy, Vz, φ, ψ, γ, h, ωx, ωy, ωz` and the coefficients as random walks; its known
 //! input `u = (δx, δy, δz)` enters both the motion and the overloads, so the deflections
@@ -118,7 +118,7 @@ const MOMENTS: [(&str, &str); 8] = [
     ("m_z_omega", "pitch damping: m_z per unit of omega_z·L/V"),
 ];
 
-/// The start of the flight (`docs/s5-missile.md`): body velocity (1000, 10, 10) m/s,
+/// The start of the flight (`docs/studies/s5.md`): body velocity (1000, 10, 10) m/s,
 /// attitude (15°, 3°, 3°), rates 3°/s each, at 10 km.
 fn start() -> [f64; 10] {
     let deg = f64::to_radians;
@@ -209,7 +209,7 @@ pub(super) fn descriptor() -> Descriptor {
          C_y = Cy0 + Cy_a·α + Cy_d·δy, C_z = Cz0 + Cz_b·β + Cz_d·δz) identified online with an SVD-CKF, with the \
          rigid-body motion, from the twelve measurements of eq. (2) every {sample_time}: the body rates, the \
          overloads (the aerodynamic force over m·g, as accelerometers read it), the attitude (pitch φ, yaw ψ, roll \
-         γ), the altitude and the air angles. Body axes x forward, y up, z right; the conventions are those of docs/s5-missile.md. \
+         γ), the altitude and the air angles. Body axes x forward, y up, z right; the conventions are those of docs/studies/s5.md. \
          The coefficients are random walks; a change is caught by the supervisor's re-acquisition.</p>\
          <p>The rudder deflections delta_x, delta_y, delta_z are known inputs (controls) of the model: they drive the \
          motion and the overloads. The controls set at communication point t are the deflections held over [t, t+h), \
@@ -222,7 +222,7 @@ pub(super) fn descriptor() -> Descriptor {
          {prior_gamma_std}, altitude within {prior_h_std}), the prior coefficients 1.2 times Table 1 with a std of \
          30 % (0.02 at least), motion process noise small (the model is the truth's up to the integration step), \
          coefficient random walks of {q_coefficient_relative_std} of their magnitude per sample, the sensors' noise \
-         of docs/s5-missile.md.</p>",
+         of docs/studies/s5.md.</p>",
         variables: v,
         default_experiment: DefaultExperiment { start: 0.0, stop: 20.0, step: 0.005 },
         build_filter: build,

@@ -1,5 +1,5 @@
 //! Study S1: dynamic load identification on a 2-DOF nonlinear spring–damper
-//! chain with an SRCKF [Gong2024]. Its four cases (stiffness- or
+//! chain with an SRCKF `[Gong2024]`. Its four cases (stiffness- or
 //! damping-nonlinear chain × random or harmonic load) run with every filter of
 //! the library.
 //!
@@ -65,7 +65,7 @@ pub fn correlation_goal(case: &Case) -> f64 {
 
 /// The estimator set-up: one documented setting for all four cases, not
 /// tuned per seed (a scan of `q` over 1e5–1e10 changes the SRCKF
-/// correlation by less than 1e-3; see the issue notes).
+/// correlation by less than 1e-3).
 ///
 /// * The load is a second-order random walk: `F̈` is white noise of intensity
 ///   `q` (N²/s³), whose exact discretisation over `dt` is the (F, Ḟ) block

@@ -1,5 +1,6 @@
 //! S1 in `kalfmu reproduce`: every case through the packaged FMU with every filter,
-//! one log per run and one comparison per case, and the table beside the paper's figures.
+//! one log per run and one comparison per case, and the table beside the paper's figures,
+//! printed and written as `table.json` ([`Table`]).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -11,11 +12,120 @@ use indicatif::{ProgressBar, ProgressStyle};
 use log_format::read::read_log;
 use log_format::write::PREDICTION;
 
-use crate::comparison::{compare_case, log_path};
+use serde::Serialize;
+
+use crate::comparison::{compare_case, log_path, units, write_table};
 use cosim::fmu_driver::ImportedFmu;
 use truth::s1::{Case, Settings};
 
-/// Runs S1 through its FMU and prints the table; returns the number of failed runs.
+/// The figures of S1's table, as `table.json` has them.
+#[derive(Debug, Serialize)]
+pub struct Table {
+    /// `"S1"`.
+    pub study: &'static str,
+    /// The set-up the figures are of.
+    pub settings: TableSettings,
+    /// The unit of each dimensional field (see [`units`]).
+    pub units: std::collections::BTreeMap<&'static str, &'static str>,
+    /// Where the `paper` figures come from.
+    pub paper_source: &'static str,
+    /// One entry per case, in the table's order.
+    pub cases: Vec<CaseFigures>,
+}
+
+/// The set-up of a [`Table`].
+#[derive(Debug, Serialize)]
+pub struct TableSettings {
+    /// Simulated duration (s).
+    pub duration: f64,
+    /// Sampling rate (Hz).
+    pub rate: f64,
+    /// Accelerometer noise as a fraction of each channel's RMS.
+    pub noise_fraction: f64,
+    /// Seed of the load and of the noise.
+    pub seed: u64,
+    /// The running RMSE's trailing window (s).
+    pub rmse_window: f64,
+}
+
+/// One case of a [`Table`]: the paper's SRCKF figures and every filter's.
+#[derive(Debug, Serialize)]
+pub struct CaseFigures {
+    /// The case, as printed (`stiffness/random`, …).
+    pub case: String,
+    /// The paper's SRCKF figures; `null` where it gives none.
+    pub paper: PaperFigures,
+    /// Why the case's runs could not be compared, if they could not (then `filters` is empty).
+    pub failure: Option<String>,
+    /// One entry per filter kind, in the table's order.
+    pub filters: Vec<FilterFigures>,
+}
+
+/// The paper's figures of a case (its SRCKF).
+#[derive(Debug, Serialize)]
+pub struct PaperFigures {
+    /// Correlation of the identified load with the true one.
+    pub correlation: f64,
+    /// Largest running RMSE (N).
+    pub running_rmse_peak: Option<f64>,
+    /// The bound the running RMSE stays under after the start (N).
+    pub running_rmse_max_converged: Option<f64>,
+}
+
+/// One filter's figures on a case: the load `F` read at t after the inputs of t were set
+/// (`feedthrough`, the table's first columns) and right after the step (`after_step`).
+#[derive(Debug, Serialize)]
+pub struct FilterFigures {
+    /// The filter kind (`SRCKF`, …).
+    pub filter: &'static str,
+    /// Why the run failed, if it did (then the figures are `null`).
+    pub failure: Option<String>,
+    /// The figures of the feedthrough reading.
+    pub feedthrough: Option<FeedthroughFigures>,
+    /// The figures of the reading after `fmi2DoStep`, against the truth at t + dt.
+    pub after_step: Option<AfterStepFigures>,
+}
+
+/// The feedthrough reading's figures of the load.
+#[derive(Debug, Serialize)]
+pub struct FeedthroughFigures {
+    /// Correlation with the true load.
+    pub correlation: f64,
+    /// RMSE after the convergence time (N).
+    pub rmse_converged: f64,
+    /// Largest running RMSE (N).
+    pub running_rmse_peak: f64,
+    /// Largest running RMSE after the convergence time (N).
+    pub running_rmse_max_converged: f64,
+    /// When the estimate is taken to have converged (s).
+    pub convergence_time: f64,
+    /// The widest band where the spectra agree within 3 dB, `[low, high]` (Hz).
+    pub psd_agreement_band: Option<(f64, f64)>,
+}
+
+/// The after-step reading's figures of the load.
+#[derive(Debug, Serialize)]
+pub struct AfterStepFigures {
+    /// Correlation with the true load.
+    pub correlation: f64,
+    /// RMSE after the convergence time (N).
+    pub rmse_converged: f64,
+}
+
+/// The units of S1's [`Table`].
+const UNITS: [(&str, &str); 8] = [
+    ("duration", "s"),
+    ("rate", "Hz"),
+    ("rmse_window", "s"),
+    ("rmse_converged", "N"),
+    ("running_rmse_peak", "N"),
+    ("running_rmse_max_converged", "N"),
+    ("convergence_time", "s"),
+    ("psd_agreement_band", "Hz"),
+];
+
+/// Runs S1 through its FMU, prints the table and writes it as `table.json` in `out/s1`;
+/// returns the number of failed runs.
 pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, "kalfmu_s1_load")?;
     let dir = out.join("s1");
@@ -69,6 +179,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
     let mut recordings = Vec::new();
     let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
     let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
+    let mut cases = Vec::new();
     for case in Case::ALL {
         let (truth, measurements) = truth::s1::simulate(&case, settings);
         let published = super::published(&case);
@@ -102,17 +213,45 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
             });
             Ok(loads.collect::<Vec<_>>())
         });
+        let mut figures = CaseFigures {
+            case: case.to_string(),
+            paper: PaperFigures {
+                correlation: published.correlation,
+                running_rmse_peak: published.running_rmse_peak,
+                running_rmse_max_converged: published.running_rmse_max_converged,
+            },
+            failure: None,
+            filters: Vec::new(),
+        };
         let loads = match compared {
             Ok(loads) => loads,
             Err(e) => {
                 failures += 1;
                 let _ = writeln!(table, "{:<19} FAILED to compare the filters: {e}", case.to_string());
+                figures.failure = Some(e.to_string());
+                cases.push(figures);
                 continue;
             }
         };
         for (kind, result) in rows {
             match result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg)) {
                 Ok((c, band, a)) => {
+                    figures.filters.push(FilterFigures {
+                        filter: kind.name(),
+                        failure: None,
+                        feedthrough: Some(FeedthroughFigures {
+                            correlation: c.correlation,
+                            rmse_converged: c.rmse_converged,
+                            running_rmse_peak: c.running_rmse_peak,
+                            running_rmse_max_converged: c.running_rmse_max_converged,
+                            convergence_time: c.convergence_time,
+                            psd_agreement_band: band,
+                        }),
+                        after_step: Some(AfterStepFigures {
+                            correlation: a.correlation,
+                            rmse_converged: a.rmse_converged,
+                        }),
+                    });
                     let band = band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
                     let _ = writeln!(
                         table,
@@ -135,19 +274,45 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                 Err(e) => {
                     failures += 1;
                     let _ = writeln!(table, "{:<19} {:<8} FAILED: {e:#}", case.to_string(), kind.name());
+                    figures.filters.push(FilterFigures {
+                        filter: kind.name(),
+                        failure: Some(format!("{e:#}")),
+                        feedthrough: None,
+                        after_step: None,
+                    });
                 }
             }
         }
+        cases.push(figures);
     }
     bar.finish_and_clear();
+    write_table(
+        &dir,
+        &Table {
+            study: "S1",
+            settings: TableSettings {
+                duration: settings.duration,
+                rate: settings.rate,
+                noise_fraction: settings.noise_fraction,
+                seed: settings.seed,
+                rmse_window: settings.rmse_window,
+            },
+            units: units(&UNITS),
+            paper_source: PAPER_SOURCE,
+            cases,
+        },
+    )?;
     print!("{table}");
-    println!("paper: SRCKF figures of Gong et al. 2024 (correlation; running-RMSE peak; bound after the start), N");
+    println!("paper: {PAPER_SOURCE} (correlation; running-RMSE peak; bound after the start), N");
     println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
     for recording in &recordings {
         println!("  {}", recording.display());
     }
     Ok(failures)
 }
+
+/// Where the paper's figures come from, as the table's footnote names it.
+const PAPER_SOURCE: &str = "SRCKF figures of Gong et al. 2024";
 
 /// The report's pair of the load `F`.
 fn load_pair<'a>(report: &'a Report<'_>) -> Option<&'a PairReport<'a>> {

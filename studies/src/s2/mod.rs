@@ -1,6 +1,6 @@
 //! Study S2: wheel–rail vertical forces from car-body, bogie and axle-box accelerations,
 //! a 10-DOF vertical vehicle augmented with the four wheel–rail forces and an SRCKF
-//! [Zhang2024].
+//! `[Chen2025]`.
 //!
 //! - The truth is [`truth::s2`]: a vehicle–track coupled model richer than the estimator's.
 //! - The study ([`study`]): the user's catalogue vehicle against the car as built, the

@@ -18,7 +18,10 @@
 //! - **vs library**: the largest difference between the FMU's forces and the same filter
 //!   run in-process on the same measurements (`study::run_filter`): the FMU in a
 //!   co-simulation must give what our own runs give.
+//!
+//! The figures are written as `table.json` too ([`Table`]): every filter's, every wheel's.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -27,10 +30,11 @@ use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::read_log;
 use log_format::write::{ESTIMATE, PREDICTION};
+use serde::Serialize;
 
 use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::study::{run_filter, user_vehicle, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::Counts;
 use truth::s2::cases::{as_built, measure, simulate, Case, Settings};
@@ -92,7 +96,167 @@ impl WheelFigures {
     }
 }
 
-/// Runs S2 through its FMU and prints the tables; returns the number of failed runs.
+/// The figures of S2's tables, as `table.json` has them: every filter's on every wheel,
+/// of which the printed tables show the SRCKF's per wheel and every filter's worst wheel.
+#[derive(Debug, Serialize)]
+pub struct Table {
+    /// `"S2"`.
+    pub study: &'static str,
+    /// The set-up the figures are of.
+    pub settings: TableSettings,
+    /// The unit of each dimensional field (see [`units`]).
+    pub units: BTreeMap<&'static str, &'static str>,
+    /// Where the `paper` figures come from.
+    pub paper_source: &'static str,
+    /// One entry per case, in the tables' order.
+    pub cases: Vec<CaseFigures>,
+}
+
+/// The set-up of a [`Table`].
+#[derive(Debug, Serialize)]
+pub struct TableSettings {
+    /// Speed of the car (m/s).
+    pub speed: f64,
+    /// Simulated duration (s).
+    pub duration: f64,
+    /// Sampling rate (Hz).
+    pub rate: f64,
+    /// Seed of the track and of the noise.
+    pub seed: u64,
+    /// Accelerometer noise as a fraction of each channel's RMS.
+    pub noise_fraction: f64,
+    /// Figures are taken from this time on (s).
+    pub settle: f64,
+    /// The running RMSE's trailing window (s).
+    pub rmse_window: f64,
+}
+
+/// One case of a [`Table`].
+#[derive(Debug, Serialize)]
+pub struct CaseFigures {
+    /// The case: `random`, `corrugation` or `weld`.
+    pub case: &'static str,
+    /// The paper's SRCKF figures, for wheelset 1.
+    pub paper: PaperFigures,
+    /// Why the case's runs could not be compared, if they could not (then only the
+    /// failed filters are listed).
+    pub failure: Option<String>,
+    /// One entry per filter kind, in the tables' order.
+    pub filters: Vec<FilterFigures>,
+}
+
+/// The paper's figures of a case (its SRCKF, wheelset 1, 200 Hz).
+#[derive(Debug, Serialize)]
+pub struct PaperFigures {
+    /// Correlation of the estimated force with the true one.
+    pub correlation: f64,
+    /// Mean of the running RMSE (kN).
+    pub running_rmse_mean: f64,
+    /// Variance of the running RMSE (kN²).
+    pub running_rmse_variance: f64,
+}
+
+/// One filter's run of a case through the FMU.
+#[derive(Debug, Serialize)]
+pub struct FilterFigures {
+    /// The filter kind (`SRCKF`, …).
+    pub filter: &'static str,
+    /// Why the run failed, if it did (then the other fields are `null`).
+    pub failure: Option<String>,
+    /// Measurement rows the FMU's gate left out.
+    pub rejected_rows: Option<i32>,
+    /// The largest difference between the FMU's forces and the same filter's in-process (N).
+    pub fmu_vs_in_process_max_abs_difference: Option<f64>,
+    /// The worst of the four wheels, as the table of every filter prints it.
+    pub worst_wheel: Option<WorstWheel>,
+    /// Wheelsets 1 to 4.
+    pub wheels: Vec<WheelTable>,
+}
+
+/// The worst figure of the four wheels, each on its own wheel.
+#[derive(Debug, Serialize)]
+pub struct WorstWheel {
+    /// The lowest correlation.
+    pub correlation_min: f64,
+    /// The largest RMSE over the true force's dynamic σ.
+    pub rmse_over_dynamic_std_max: f64,
+    /// The weld's peak error of the largest magnitude (%); `null` for the other cases.
+    pub weld_peak_error_max_abs: Option<f64>,
+    /// The lowest share of errors inside the FMU's ±2σ.
+    pub two_sigma_coverage_min: Option<f64>,
+    /// The lowest correlation of the forces read right after the step.
+    pub after_step_correlation_min: f64,
+}
+
+/// One wheel's figures, the force read at t after the inputs of t were set.
+#[derive(Debug, Serialize)]
+pub struct WheelTable {
+    /// The wheelset, 1 to 4.
+    pub wheelset: usize,
+    /// Correlation with the true force.
+    pub correlation: f64,
+    /// RMSE (kN).
+    pub rmse: f64,
+    /// Mean of the running RMSE (kN).
+    pub running_rmse_mean: f64,
+    /// Variance of the running RMSE (kN²).
+    pub running_rmse_variance: f64,
+    /// The true force's standard deviation about its mean (kN).
+    pub dynamic_std: f64,
+    /// RMSE over the true force's dynamic σ.
+    pub rmse_over_dynamic_std: f64,
+    /// The error of the peak dynamic force (%); `null` for the cases without a weld.
+    pub weld_peak_error: Option<f64>,
+    /// The widest band where the spectra agree within 3 dB, `[low, high]` (Hz).
+    pub psd_agreement_band: Option<(f64, f64)>,
+    /// Share of the errors inside the FMU's ±2σ (`null` without σ).
+    pub two_sigma_coverage: Option<f64>,
+    /// Correlation of the force read right after the step with the truth at t + dt.
+    pub after_step_correlation: f64,
+}
+
+impl WheelTable {
+    /// Wheelset `wheelset`'s table entry of `case` from its figures `w` and those after
+    /// the step `a`.
+    fn new(case: Case, wheelset: usize, w: &WheelFigures, a: &WheelFigures) -> Self {
+        Self {
+            wheelset,
+            correlation: w.correlation,
+            rmse: w.rmse / 1e3,
+            running_rmse_mean: w.running_rmse_mean / 1e3,
+            running_rmse_variance: w.running_rmse_var / 1e6,
+            dynamic_std: w.dynamic_std / 1e3,
+            rmse_over_dynamic_std: w.rmse / w.dynamic_std,
+            weld_peak_error: weld_percent(case, w.peak_error),
+            psd_agreement_band: w.band,
+            two_sigma_coverage: Some(w.two_sigma).filter(|c| !c.is_nan()),
+            after_step_correlation: a.correlation,
+        }
+    }
+}
+
+/// The units of S2's [`Table`].
+const UNITS: [(&str, &str); 13] = [
+    ("speed", "m/s"),
+    ("duration", "s"),
+    ("rate", "Hz"),
+    ("settle", "s"),
+    ("rmse_window", "s"),
+    ("rmse", "kN"),
+    ("running_rmse_mean", "kN"),
+    ("running_rmse_variance", "kN²"),
+    ("dynamic_std", "kN"),
+    ("weld_peak_error", "%"),
+    ("weld_peak_error_max_abs", "%"),
+    ("psd_agreement_band", "Hz"),
+    ("fmu_vs_in_process_max_abs_difference", "N"),
+];
+
+/// Where the paper's figures come from.
+const PAPER_SOURCE: &str = "SRCKF figures of the seed study for wheelset 1 at 200 Hz";
+
+/// Runs S2 through its FMU, prints the tables and writes them as `table.json` in
+/// `out/s2`; returns the number of failed runs.
 pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
     let dir = out.join("s2");
@@ -161,6 +325,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
     );
     let mut failures = 0;
     let mut recordings = Vec::new();
+    let mut cases = Vec::new();
     for case in Case::ALL {
         let truth = simulate(case, settings);
         let measurements = measure(&truth, settings.noise_fraction, settings.seed);
@@ -170,6 +335,17 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         let stem = dir.join(case.name());
         let mut runs = Vec::new();
         let mut ran: Vec<(FilterKind, Counts, f64)> = Vec::new();
+        let (paper_corr, paper_rmse, paper_var) = published(case);
+        let mut case_figures = CaseFigures {
+            case: case.name(),
+            paper: PaperFigures {
+                correlation: paper_corr,
+                running_rmse_mean: paper_rmse,
+                running_rmse_variance: paper_var,
+            },
+            failure: None,
+            filters: Vec::new(),
+        };
         let vehicle = user_vehicle(&catalogue, truth_car.static_wheel_load());
         for kind in FilterKind::ALL {
             let log = log_path(&stem, kind);
@@ -188,6 +364,14 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                 Err(e) => {
                     failures += 1;
                     let _ = writeln!(filters, "{:<12} {:<8} FAILED: {e:#}", case.name(), kind.name());
+                    case_figures.filters.push(FilterFigures {
+                        filter: kind.name(),
+                        failure: Some(format!("{e:#}")),
+                        rejected_rows: None,
+                        fmu_vs_in_process_max_abs_difference: None,
+                        worst_wheel: None,
+                        wheels: Vec::new(),
+                    });
                 }
             }
         }
@@ -208,10 +392,11 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
             Err(e) => {
                 failures += 1;
                 let _ = writeln!(filters, "{:<12} FAILED to compare the filters: {e}", case.name());
+                case_figures.failure = Some(e.to_string());
+                cases.push(case_figures);
                 continue;
             }
         };
-        let (paper_corr, paper_rmse, paper_var) = published(case);
         for ((kind, counts, difference), (wheels, after)) in ran.iter().zip(&figures) {
             if *kind == FilterKind::SrCkf {
                 for (j, (w, a)) in wheels.iter().zip(after).enumerate() {
@@ -238,28 +423,72 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
             let worst = |f: fn(&WheelFigures) -> f64, pick: fn(f64, f64) -> f64, start: f64| {
                 wheels.iter().map(f).fold(start, pick)
             };
+            let worst_wheel = WorstWheel {
+                correlation_min: worst(|w| w.correlation, f64::min, f64::INFINITY),
+                rmse_over_dynamic_std_max: worst(|w| w.rmse / w.dynamic_std, f64::max, 0.0),
+                weld_peak_error_max_abs: weld_percent(
+                    case,
+                    worst(|w| w.peak_error, |a, b| if b.abs() > a.abs() { b } else { a }, 0.0),
+                ),
+                two_sigma_coverage_min: Some(worst(|w| w.two_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
+                after_step_correlation_min: after.iter().map(|a| a.correlation).fold(f64::INFINITY, f64::min),
+            };
             let _ = writeln!(
                 filters,
                 "{:<12} {:<8} {:>9.4} {:>11.3} {:>9} {:>10.3} {:>9} {:>10.4} {:>12.1e}",
                 case.name(),
                 kind.name(),
-                worst(|w| w.correlation, f64::min, f64::INFINITY),
-                worst(|w| w.rmse / w.dynamic_std, f64::max, 0.0),
+                worst_wheel.correlation_min,
+                worst_wheel.rmse_over_dynamic_std_max,
                 peak(case, worst(|w| w.peak_error, |a, b| if b.abs() > a.abs() { b } else { a }, 0.0)),
                 worst(|w| w.two_sigma, f64::min, f64::INFINITY),
                 counts.rejected,
-                after.iter().map(|a| a.correlation).fold(f64::INFINITY, f64::min),
+                worst_wheel.after_step_correlation_min,
                 difference
             );
+            case_figures.filters.push(FilterFigures {
+                filter: kind.name(),
+                failure: None,
+                rejected_rows: Some(counts.rejected),
+                fmu_vs_in_process_max_abs_difference: Some(*difference),
+                worst_wheel: Some(worst_wheel),
+                wheels: wheels
+                    .iter()
+                    .zip(after)
+                    .enumerate()
+                    .map(|(j, (w, a))| WheelTable::new(case, j + 1, w, a))
+                    .collect(),
+            });
         }
+        let order = |f: &FilterFigures| FilterKind::ALL.iter().position(|k| k.name() == f.filter);
+        case_figures.filters.sort_by_key(order);
+        cases.push(case_figures);
     }
+    write_table(
+        &dir,
+        &Table {
+            study: "S2",
+            settings: TableSettings {
+                speed: settings.speed,
+                duration: settings.duration,
+                rate: settings.rate,
+                seed: settings.seed,
+                noise_fraction: settings.noise_fraction,
+                settle: SETTLE,
+                rmse_window: RMSE_WINDOW,
+            },
+            units: units(&UNITS),
+            paper_source: PAPER_SOURCE,
+            cases,
+        },
+    )?;
     println!("SRCKF (the paper's filter), per wheelset; the paper's figures are for wheelset 1:");
     print!("{srckf}");
     println!("every filter, the worst of the four wheels (rejected: measurement rows the FMU's gate left out):");
     print!("{filters}");
     println!(
-        "paper: SRCKF figures of the seed study for wheelset 1 at 200 Hz, its truth and estimator sharing one model \
-         (RMSE 0.2 % of the wheel load); ours differ (track, Hertz contact, the user's catalogue values)"
+        "paper: {PAPER_SOURCE}, its truth and estimator sharing one model (RMSE 0.2 % of the wheel load); ours differ \
+         (track, Hertz contact, the user's catalogue values)"
     );
     println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
     for recording in &recordings {
@@ -268,11 +497,12 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
     Ok(failures)
 }
 
-/// The weld's peak error as a percentage; the other cases have none.
+/// The weld's peak error as printed, a percentage; the other cases have none.
 fn peak(case: Case, error: f64) -> String {
-    if case == Case::Weld {
-        format!("{:+.1} %", 100.0 * error)
-    } else {
-        "—".into()
-    }
+    weld_percent(case, error).map_or("—".into(), |percent| format!("{percent:+.1} %"))
+}
+
+/// The weld's peak error `error` (a fraction) in percent; `None` for the other cases.
+fn weld_percent(case: Case, error: f64) -> Option<f64> {
+    (case == Case::Weld).then(|| 100.0 * error)
 }

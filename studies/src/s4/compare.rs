@@ -24,8 +24,9 @@ use truth::s4::recording::Recording;
 
 /// The paper's figures (§3.2): mean speed error 0.12 → 0.08 m/s (−32.6 %), speed range
 /// 11.09 → 5.62 m/s (−49.3 %) against a true range of 5.6 m/s.
-const PAPER_MEAN_REDUCTION: f64 = 0.326;
-const PAPER_RANGE: (f64, f64) = (11.09, 5.62);
+pub(crate) const PAPER_MEAN_REDUCTION: f64 = 0.326;
+/// The paper's speed range before and after its pipeline (m/s).
+pub(crate) const PAPER_RANGE: (f64, f64) = (11.09, 5.62);
 
 /// How close an offset estimate must come to be counted as found (m): its difference
 /// from the four channels' mean offset (the only part the channels observe) within this
@@ -59,16 +60,23 @@ pub struct Args {
 }
 
 /// One estimator's scores on one recording.
+#[derive(serde::Serialize)]
 struct Scores {
     speed: SpeedScore,
+    #[serde(rename = "position_max_abs_error")]
     position_max: f64,
+    #[serde(rename = "in_etcs_band_fraction")]
     in_band: f64,
 }
 
 /// One recording's comparison.
+#[derive(serde::Serialize)]
 pub(crate) struct Comparison {
+    #[serde(rename = "raw_average")]
     raw: Scores,
+    #[serde(rename = "paper_fused")]
     fused: Scores,
+    #[serde(rename = "paper_fused_ukf")]
     filtered: Scores,
     ours: Scores,
     paper_detection: DetectionScore,
@@ -87,7 +95,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "S4: speed and position from four PRW position channels, {:?} profile ({:.1} s, telegrams every 0.02 s), default faults (docs/s4-maglev.md); in-process, ours {kind}",
+        "S4: speed and position from four PRW position channels, {:?} profile ({:.1} s, telegrams every 0.02 s), default faults (docs/studies/s4.md); in-process, ours {kind}",
         args.profile,
         profile.duration()
     );

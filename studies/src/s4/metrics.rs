@@ -1,4 +1,4 @@
-//! Scoring S4's estimates against the truth, as issue 21 asks: speed errors as the paper
+//! Scoring S4's estimates against the truth, as the study asks of it: speed errors as the paper
 //! reports them (§3.2), position errors, fault detections and false alarms, and the ETCS
 //! speed-accuracy band.
 //!
@@ -52,7 +52,7 @@
 //!
 //! A fault is **detected** when its channel is flagged at a telegram of its effect or up to
 //! `latency` telegrams after it ([`DetectionSettings::latency`], default 1: one telegram
-//! late, the latency issue 21 allows). An offset is detected when the detector says so for
+//! late, the latency the study allows). An offset is detected when the detector says so for
 //! its channel: the caller passes a per-channel "offset detected" bool (for instance, an
 //! estimated offset beyond its uncertainty); flags never count for an offset, or any false
 //! alarm anywhere would "detect" it. A **false alarm** is a flag at a telegram of a channel
@@ -73,7 +73,7 @@ use truth::s4::faults::{Fault, FaultKind};
 use truth::s4::recording::Recording;
 
 /// Statistics of an error series `e = estimate − truth`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ErrorStats {
     /// Samples scored (both finite).
     pub n: usize,
@@ -144,7 +144,7 @@ impl ErrorStats {
 }
 
 /// A speed series scored as the paper scores it (see the module documentation).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct SpeedScore {
     /// The error statistics.
     pub error: ErrorStats,
@@ -269,7 +269,7 @@ pub fn effect_telegrams(fault: &Fault, n_telegrams: usize) -> Range<usize> {
 pub const FAULT_KINDS: [&str; 5] = ["dropout", "resend", "spike", "slot slip", "offset"];
 
 /// Detections of one fault kind.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct KindScore {
     /// The kind's name ([`FaultKind::name`]).
     pub name: &'static str,
@@ -280,7 +280,7 @@ pub struct KindScore {
 }
 
 /// Detections per fault kind and false alarms.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct DetectionScore {
     /// One per kind, in [`FAULT_KINDS`]' order.
     pub kinds: [KindScore; 5],

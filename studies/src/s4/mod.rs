@@ -1,6 +1,6 @@
 //! Study S4: a maglev train's speed and position from four redundant long-stator PRW
 //! position channels: the paper's outlier rejection, adaptive weighted fusion and UKF on
-//! the differenced speeds [Wang2023], against ours on the positions. The truth is
+//! the differenced speeds `[MaglevUKF2024]`, against ours on the positions. The truth is
 //! [`truth::s4`]; the conventions and the fault model are in `docs/studies/s4.md`.
 //!
 //! - The paper's pipeline ([`paper`]), ours on the positions ([`ours`]), their scores

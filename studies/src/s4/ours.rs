@@ -1,11 +1,11 @@
-//! Our estimator for S4, beyond the paper (issue 21): a filter on the four **position**
+//! Our estimator for S4, beyond the paper: a filter on the four **position**
 //! channels instead of on their differenced speeds, with each channel's offset as a state
 //! ([`PrwTrain`]), run behind the library's [`Supervisor`] so that a faulty channel is
 //! left out and flagged rather than averaged in. Any [`FilterKind`] runs it.
 //!
 //! Every telegram: predict by Δt, hand the four positions to the gate (which takes in a
 //! slot slip once one has shown, below), commit. What happens to each fault of the channel
-//! model (`docs/s4-maglev.md`):
+//! model (`docs/studies/s4.md`):
 //!
 //! - **Dropped telegrams** are missing rows (NaN): the train's computer knows that nothing
 //!   arrived (`Recording::received`).
@@ -98,7 +98,7 @@ impl Tuning {
     ///   times the smallest `q` that keeps the gate quiet at the jumps. It is a choice
     ///   for this class of motion (jumps of 2.5 m/s² a few times a run), made on the
     ///   simulator: the paper gives no jerk.
-    /// - `R = (1.5 mm)²` per channel: the sensor's specification (`VEHICLE_TRACK.md`,
+    /// - `R = (1.5 mm)²` per channel: the sensor's specification (our estimate,
     ///   1–2 mm), not a value fitted to the simulator's truth.
     /// - Offsets: prior σ 0.05 m, the largest installation error the fault model
     ///   allows; constants (no walk: nothing in the fault model drifts).

@@ -1,4 +1,4 @@
-//! The seed paper's pipeline over a recorded run (`003_…`, §2, eq. (19)), and the raw
+//! The paper's pipeline over a recorded run (`[MaglevUKF2024]`, §2, eq. (19)), and the raw
 //! average it is compared with.
 //!
 //! Per telegram `k ≥ 1` (time `k·Δt`) the train knows the four raw speeds
@@ -20,7 +20,7 @@
 //!    covariance, `1/(2(n + λ))` for the `2n` other points, the means (`x̂`, `ẑ`) taken
 //!    with `W^m` and every covariance (`P`, `P_zz`, `P_xz`) with `W^c`. The seed's
 //!    weights (15) read the same in our copy of its text, but eq. (17) forms `P_zz` with
-//!    the mean weights `W_a` (the digest in `SCENARIOS.md` calls it a swap in (15)). On
+//!    the mean weights `W_a` (a swap in its eq. (15)). On
 //!    this model the difference vanishes: `n = 1`, `α = 1e-3` give `λ = −0.999 999`,
 //!    `W_0^m = −999 999`, `W_0^c = −999 996`, `W_l = 500 000`, and with `f` and `g` linear
 //!    the centre point sits exactly on the mean, so its weight multiplies a zero deviation

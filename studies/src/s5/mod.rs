@@ -1,5 +1,5 @@
 //! Study S5: a tactical missile's ten force coefficients identified online from twelve
-//! measurements, a 20-state augmented 6-DOF, SVD-CKF against CKF [Li2023], through a
+//! measurements, a 20-state augmented 6-DOF, SVD-CKF against CKF `[Jiang2024]`, through a
 //! change of every coefficient mid-flight. The conventions are in `docs/studies/s5.md`.
 //!
 //! - The truths are [`truth::s5`] (the paper's 6-DOF) and JSBSim (`truth/s5_jsbsim/`).

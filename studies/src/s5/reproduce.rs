@@ -5,8 +5,10 @@
 //! through fmpy, as a flight simulator would (`truth/s5_jsbsim/fly.py`), once per
 //! filter. For each: the paper's Tables 1 and 2 with each filter's relative error beside
 //! the paper's SVD-CKF, and the time to come back after the change; one log per run and
-//! one comparison recording per truth (`out/s5/`).
+//! one comparison recording per truth (`out/s5/`), and the tables' figures as `table.json`
+//! there ([`Table`]).
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -15,10 +17,11 @@ use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::read_log;
 use log_format::write::{ESTIMATE, TRUTH};
+use serde::Serialize;
 
 use super::fmu_run::{self, IDENTIFIER};
 use super::study::{run_filter, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
 use truth::s5::flight::{measure, simulate, Settings};
 use truth::s5::parameters::{NAMES, PAPER_SVD_CKF_AFTER, PAPER_SVD_CKF_BEFORE};
@@ -45,8 +48,113 @@ struct Checked {
     rejected: i32,
 }
 
-/// Runs S5 through its FMU for both truths and prints the tables; `python` runs the
-/// JSBSim driver. Returns the number of failed runs.
+/// The figures of S5's tables, as `table.json` has them.
+#[derive(Debug, Serialize)]
+pub struct Table {
+    /// `"S5"`.
+    pub study: &'static str,
+    /// The set-up the figures are of.
+    pub settings: TableSettings,
+    /// The unit of each dimensional field (see [`units`]).
+    pub units: BTreeMap<&'static str, &'static str>,
+    /// What the paper claims of its filters.
+    pub paper_claim: &'static str,
+    /// The first truth (`6dof`, our 6-DOF) and the second (`jsbsim`).
+    pub truths: Vec<TruthFigures>,
+}
+
+/// The set-up of a [`Table`].
+#[derive(Debug, Serialize)]
+pub struct TableSettings {
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// The sample time of the measurements and of the FMU's step (s).
+    pub sample_time: f64,
+    /// The sensor noise as a multiple of docs/s5-missile.md's.
+    pub noise_scale: f64,
+}
+
+/// One truth's tables.
+#[derive(Debug, Serialize)]
+pub struct TruthFigures {
+    /// `6dof` or `jsbsim`, the stem of its logs.
+    pub truth: &'static str,
+    /// The runs that failed, each with why.
+    pub failures: Vec<FilterFailure>,
+    /// The paper's Tables 1 and 2 (empty if no run succeeded).
+    pub tables: Vec<CoefficientTable>,
+    /// Each successful filter's figures after the change.
+    pub filters: Vec<FilterFigures>,
+}
+
+/// A run that failed.
+#[derive(Debug, Serialize)]
+pub struct FilterFailure {
+    /// The filter kind (`SRCKF`, …).
+    pub filter: &'static str,
+    /// Why it failed.
+    pub failure: String,
+}
+
+/// One of the paper's tables: each coefficient's relative error at one instant.
+#[derive(Debug, Serialize)]
+pub struct CoefficientTable {
+    /// `Table 1` (before the change) or `Table 2` (after it).
+    pub table: &'static str,
+    /// The instant of the estimates (s).
+    pub time: f64,
+    /// The ten coefficients, in the paper's order.
+    pub coefficients: Vec<CoefficientRow>,
+}
+
+/// One coefficient's row of a [`CoefficientTable`].
+#[derive(Debug, Serialize)]
+pub struct CoefficientRow {
+    /// The coefficient (`Cx0`, …).
+    pub coefficient: &'static str,
+    /// Its true value at the table's instant.
+    pub true_value: f64,
+    /// The paper's SVD-CKF estimate.
+    pub paper_svd_ckf: f64,
+    /// The paper's SVD-CKF's relative error from the true value (%).
+    pub paper_svd_ckf_relative_error: f64,
+    /// Each filter's relative error from the true value (%), by filter kind.
+    pub relative_error: BTreeMap<&'static str, f64>,
+}
+
+/// One filter's figures after the change at 10 s.
+#[derive(Debug, Serialize)]
+pub struct FilterFigures {
+    /// The filter kind (`SRCKF`, …).
+    pub filter: &'static str,
+    /// Time after the change from which every coefficient stays within 3 % (s); `null`
+    /// if never.
+    pub back_within_3_percent: Option<f64>,
+    /// The same within 1 % (s).
+    pub back_within_1_percent: Option<f64>,
+    /// Measurement rows the FMU's gate rejected (the first truth's runs only).
+    pub rejected_rows: Option<i32>,
+    /// The largest difference of a coefficient from the same filter's in-process (the
+    /// first truth's runs only).
+    pub fmu_vs_in_process_max_abs_difference: Option<f64>,
+}
+
+/// The units of S5's [`Table`].
+const UNITS: [(&str, &str); 6] = [
+    ("sample_time", "s"),
+    ("time", "s"),
+    ("paper_svd_ckf_relative_error", "%"),
+    ("relative_error", "%"),
+    ("back_within_3_percent", "s"),
+    ("back_within_1_percent", "s"),
+];
+
+/// What the paper claims, as the tables' footnote prints it.
+const PAPER_CLAIM: &str = "SVD-CKF within 3 % and CKF within 5 % of every coefficient, in both tables";
+
+/// Runs S5 through its FMU for both truths, prints the tables and writes them as
+/// `table.json` in `out/s5`; `python` runs the JSBSim driver. Returns the number of
+/// failed runs.
 pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
     let dir = out.join("s5");
@@ -69,6 +177,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
     let mut failures = 0;
     let mut runs = Vec::new();
     let mut logs = Vec::new();
+    let mut run_failures = Vec::new();
     for kind in FilterKind::ALL {
         let log = log_path(&stem, kind);
         let through_fmu = fmu_run::run(&fmu, kind, settings, &truth, &measurements, &log).and_then(|counts| {
@@ -86,6 +195,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
             Err(e) => {
                 failures += 1;
                 println!("{kind}: FAILED: {e:#}");
+                run_failures.push(FilterFailure { filter: kind.name(), failure: format!("{e:#}") });
             }
         }
     }
@@ -98,17 +208,33 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
         }
     };
     let before = (settings.sample_time.recip() * 10.0).round() as usize - 1;
-    print_tables(&runs, &truth.time, before);
+    let (tables, filters) = print_tables(&runs, &truth.time, before);
+    let first = TruthFigures { truth: "6dof", failures: run_failures, tables, filters };
     if let Some(recording) = recording {
         println!("comparison recording, every filter in one: {}", recording.display());
     }
-    failures += jsbsim(settings, &fmu_dir.join(format!("{IDENTIFIER}.fmu")), &dir, python, before);
+    let (jsbsim_failures, second) = jsbsim(settings, &fmu_dir.join(format!("{IDENTIFIER}.fmu")), &dir, python, before);
+    failures += jsbsim_failures;
+    write_table(
+        &dir,
+        &Table {
+            study: "S5",
+            settings: TableSettings {
+                seed: settings.seed,
+                sample_time: settings.sample_time,
+                noise_scale: settings.noise_scale,
+            },
+            units: units(&UNITS),
+            paper_claim: PAPER_CLAIM,
+            truths: vec![first, second],
+        },
+    )?;
     Ok(failures)
 }
 
 /// The second truth: JSBSim through its Python driver, once per filter; prints the tables
-/// and returns the number of failed runs.
-fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: usize) -> usize {
+/// and returns the number of failed runs and the tables' figures.
+fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: usize) -> (usize, TruthFigures) {
     let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("../truth/s5_jsbsim/fly.py");
     println!(
         "truth 2: JSBSim (WGS84 rotating Earth, US 1976 atmosphere) flies the same manoeuvre; {} steps the FMU \
@@ -120,6 +246,7 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
     let stem = dir.join("jsbsim");
     let mut failures = 0;
     let (mut runs, mut logs) = (Vec::new(), Vec::new());
+    let mut figures = TruthFigures { truth: "jsbsim", failures: Vec::new(), tables: Vec::new(), filters: Vec::new() };
     let mut time = Vec::new();
     for kind in FilterKind::ALL {
         let log = log_path(&stem, kind);
@@ -155,13 +282,14 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
             Err(e) => {
                 failures += 1;
                 println!("{kind} (JSBSim): FAILED: {e:#}");
+                figures.failures.push(FilterFailure { filter: kind.name(), failure: format!("{e:#}") });
             }
         }
     }
     if runs.is_empty() {
-        return failures;
+        return (failures, figures);
     }
-    print_tables(&runs, &time, before);
+    (figures.tables, figures.filters) = print_tables(&runs, &time, before);
     match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
         Ok((_, recording)) => println!("comparison recording, every filter in one: {}", recording.display()),
         Err(e) => {
@@ -169,19 +297,35 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
             println!("FAILED to compare the JSBSim runs: {e}");
         }
     }
-    failures
+    (failures, figures)
 }
 
 /// The paper's Tables 1 and 2 (each filter's relative error at the end of each half beside
 /// the paper's SVD-CKF), the time back within 3 % and 1 % after the change, and, for runs
-/// checked in-process, the gate's rejections and the difference from the library.
-fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) {
+/// checked in-process, the gate's rejections and the difference from the library; returns
+/// the same figures, the tables and each filter's.
+fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<CoefficientTable>, Vec<FilterFigures>) {
     let end = time.len() - 1;
-    for (title, k, paper) in [
-        ("Table 1, before the change (at 9.995 s)", before, PAPER_SVD_CKF_BEFORE),
-        ("Table 2, after the change (at 20 s)", end, PAPER_SVD_CKF_AFTER),
+    let relative_error = |estimate: f64, true_value: f64| 100.0 * (estimate / true_value - 1.0);
+    let mut tables = Vec::new();
+    for (table, title, k, paper) in [
+        ("Table 1", "Table 1, before the change (at 9.995 s)", before, PAPER_SVD_CKF_BEFORE),
+        ("Table 2", "Table 2, after the change (at 20 s)", end, PAPER_SVD_CKF_AFTER),
     ] {
         let true_values = runs[0].truth[k];
+        let coefficients = (0..10)
+            .map(|i| CoefficientRow {
+                coefficient: NAMES[i],
+                true_value: true_values[i],
+                paper_svd_ckf: paper[i],
+                paper_svd_ckf_relative_error: relative_error(paper[i], true_values[i]),
+                relative_error: runs
+                    .iter()
+                    .map(|r| (r.kind.name(), relative_error(r.coefficients[k][i], true_values[i])))
+                    .collect(),
+            })
+            .collect();
+        tables.push(CoefficientTable { table, time: time[k], coefficients });
         println!("{title}: relative error of each filter's estimate, %");
         let mut header = format!("{:<6} {:>8} {:>9} {:>7}", "coef", "true", "paper SVD", "err %");
         for r in runs {
@@ -194,29 +338,40 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) {
                 NAMES[i],
                 true_values[i],
                 paper[i],
-                100.0 * (paper[i] / true_values[i] - 1.0)
+                relative_error(paper[i], true_values[i])
             );
             for r in runs {
-                let _ = write!(row, " {:>+8.3}", 100.0 * (r.coefficients[k][i] / true_values[i] - 1.0));
+                let _ = write!(row, " {:>+8.3}", relative_error(r.coefficients[k][i], true_values[i]));
             }
             println!("{row}");
         }
     }
     let after = runs[0].truth[end];
+    let mut filters = Vec::new();
     let mut back = format!("{:<26}", "back within 3 % / 1 %, s");
     let mut rejected = format!("{:<26}", "rows rejected by the gate");
     let mut difference = format!("{:<26}", "vs library (largest |Δ|)");
     for r in runs {
+        // The time after the change from which every coefficient stays within `bound`.
         let within = |bound: f64| {
             (before + 1..=end)
                 .find(|&k| (k..=end).all(|j| (0..10).all(|i| (r.coefficients[j][i] / after[i] - 1.0).abs() <= bound)))
-                .map_or("never".to_string(), |k| format!("{:.2}", time[k] - 10.0))
+                .map(|k| time[k] - 10.0)
         };
-        let _ = write!(back, " {:>12}", format!("{}/{}", within(0.03), within(0.01)));
+        let (within_3, within_1) = (within(0.03), within(0.01));
+        let shown = |seconds: Option<f64>| seconds.map_or("never".to_string(), |s| format!("{s:.2}"));
+        let _ = write!(back, " {:>12}", format!("{}/{}", shown(within_3), shown(within_1)));
         if let Some(checked) = &r.checked {
             let _ = write!(rejected, " {:>12}", checked.rejected);
             let _ = write!(difference, " {:>12.1e}", checked.difference);
         }
+        filters.push(FilterFigures {
+            filter: r.kind.name(),
+            back_within_3_percent: within_3,
+            back_within_1_percent: within_1,
+            rejected_rows: r.checked.as_ref().map(|c| c.rejected),
+            fmu_vs_in_process_max_abs_difference: r.checked.as_ref().map(|c| c.difference),
+        });
     }
     let names: String = runs.iter().map(|r| format!(" {:>12}", r.kind.name())).collect();
     println!("after the change{}{names}", " ".repeat(10));
@@ -224,5 +379,6 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) {
     if runs.iter().all(|r| r.checked.is_some()) {
         println!("{rejected}\n{difference}");
     }
-    println!("paper: SVD-CKF within 3 % and CKF within 5 % of every coefficient, in both tables");
+    println!("paper: {PAPER_CLAIM}");
+    (tables, filters)
 }

@@ -1,5 +1,5 @@
 //! `kalfmu s5-robustness`: where each filter kind fails or diverges on S5. Conditions
-//! (the issue's): the paper's own sensors, a thousand times finer than ours, with `R` to
+//! tried: the paper's own sensors, a thousand times finer than ours, with `R` to
 //! match (a tiny `R`); our sensors with `R` told a thousand times too small; a long run
 //! (the manoeuvre flown five times, 100 s, the coefficients constant); a flight with no
 //! rudder input (the control derivatives unobservable). Every filter runs behind the

@@ -1,4 +1,4 @@
-//! The S1 truth simulator: the physical two-mass chain of `SCENARIOS.md`
+//! The S1 truth simulator: the physical two-mass chain of `[Gong2024]`
 //! (continuous piecewise-linear element, load on m₂) driven by a load that
 //! varies continuously in time, integrated with RK4 at a fine step (1e-4 s by
 //! default, 50 steps per 200 Hz sample) and sampled at the estimator rate.

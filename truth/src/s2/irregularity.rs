@@ -17,9 +17,9 @@ pub struct FraSpectrum {
 }
 
 impl FraSpectrum {
-    /// Class 5. [src: FRA; `VEHICLE_TRACK.md`]
+    /// Class 5. [src: `[FRA-PSD]`]
     pub const CLASS_5: FraSpectrum = FraSpectrum { roughness: 0.2095e-4, cutoff: 0.8245 };
-    /// Class 6. [src: FRA; `VEHICLE_TRACK.md`]
+    /// Class 6. [src: `[FRA-PSD]`]
     pub const CLASS_6: FraSpectrum = FraSpectrum { roughness: 0.0339e-4, cutoff: 0.8245 };
 
     /// The one-sided density at `omega` rad/m.
@@ -51,7 +51,7 @@ pub struct RandomProfile {
 }
 
 impl RandomProfile {
-    /// Wavelengths sampled (m): 1 to 120 m, as `VEHICLE_TRACK.md` advises.
+    /// Wavelengths sampled (m): 1 to 120 m, as `[Zhai2015]` advises.
     pub const WAVELENGTHS: (f64, f64) = (1.0, 120.0);
     /// Lines of the sum of cosines.
     pub const LINES: usize = 2000;

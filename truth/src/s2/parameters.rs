@@ -1,5 +1,5 @@
 //! The physical data of the S2 truth: one vehicle set and one track set, each value with
-//! its source (`../shared/VEHICLE_TRACK.md` gathers them). `[est]` marks our own choice.
+//! its source (`docs/references.md`). `[est]` marks our own choice.
 //!
 //! Convention: a vertical model of one rail, carrying half the vehicle. Masses and pitch
 //! inertias are halved; the primary suspension is one axle box per wheel, the secondary
@@ -44,7 +44,7 @@ pub struct Vehicle {
 }
 
 impl Vehicle {
-    /// Zhai's high-speed passenger car (the first column of `VEHICLE_TRACK.md`).
+    /// Zhai's high-speed passenger car (`[Zhai2015]`).
     pub const ZHAI_PASSENGER: Vehicle = Vehicle {
         car_body_mass: 34_000.0,
         car_body_pitch_inertia: 2.277e6,
@@ -68,7 +68,7 @@ impl Vehicle {
     }
 
     /// The Hertz coefficient `G` of a conical tread (m/N^(2/3)):
-    /// `4.57·R^−0.149·1e-8`. [src: Zhai; `VEHICLE_TRACK.md`]
+    /// `4.57·R^−0.149·1e-8`. [src: `[Zhai2015]`]
     pub fn hertz_coefficient(&self) -> f64 {
         4.57e-8 * self.wheel_radius.powf(-0.149)
     }
@@ -113,7 +113,7 @@ pub struct Track {
 }
 
 impl Track {
-    /// The ballasted track of `VEHICLE_TRACK.md` (CHN60 rail, Zhai's ballast model).
+    /// The ballasted track of `[Zhai2015]` (CHN60 rail, Zhai's ballast model).
     pub const BALLASTED: Track = Track {
         rail_mass_per_metre: 60.64,
         rail_bending_stiffness: 2.059e11 * 3.217e-5,

@@ -1,5 +1,4 @@
-//! The fault model of a PRW position channel (`VEHICLE_TRACK.md`, "Maglev PRW channels
-//! (S4)"; `docs/s4-maglev.md`), and the faults drawn from it, recorded as the ground
+//! The fault model of a PRW position channel (our estimates, `docs/studies/s4.md`), and the faults drawn from it, recorded as the ground
 //! truth that detectors are scored against.
 //!
 //! Per channel and telegram, independently of the other channels:
@@ -103,7 +102,7 @@ pub struct Faults {
 }
 
 impl Default for Faults {
-    /// The paper-like channel: `VEHICLE_TRACK.md`'s rates, our sizes where it has none.
+    /// The paper-like channel: our estimated rates and sizes (`docs/studies/s4.md`).
     ///
     /// - Noise 1.5 mm: the middle of its 1–2 mm; a pole-phase angle accurate to 2.8°
     ///   (the paper's ref. [9]) on the 258 mm pole pitch is 2.0 mm.

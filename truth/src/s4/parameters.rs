@@ -1,13 +1,12 @@
-//! S4's numbers, each with its source: the paper's test run and telegram clock (seed
-//! `003_…`, §1.2 and §3.1), the long stator and its position channels (`VEHICLE_TRACK.md`,
-//! "Maglev PRW channels (S4)"), and the high-speed run we add. `[est]` marks our own
-//! choice; `docs/s4-maglev.md` explains each.
+//! S4's numbers, each with its source: the paper's test run and telegram clock
+//! (`[MaglevUKF2024]`, §1.2 and §3.1), the long stator and its position channels, and the
+//! high-speed run we add. `[est]` marks our own choice; `docs/studies/s4.md` explains each.
 
 /// Time between two PRW telegrams (s): Δt = 0.02 s. [src: the paper, eq. (2) and §3.1]
 pub const TELEGRAM_INTERVAL: f64 = 0.02;
 
 /// The long stator's slot pitch (m): 86 mm, three slots per 258 mm pole pitch. A slot
-/// slip shifts a channel's position by one pitch. [src: `VEHICLE_TRACK.md`]
+/// slip shifts a channel's position by one pitch. [est]
 pub const SLOT_PITCH: f64 = 0.086;
 
 /// Distance along the train between the head and the tail sensors (m): two end sections
@@ -27,11 +26,11 @@ pub const PAPER_STOP_POSITION: f64 = 506.4;
 /// The speeds the paper fuses, `t = 1, 2, …, 5695` in its eq. (19): one per pair of
 /// neighbouring telegrams, so the recording holds 5,696 telegrams and lasts
 /// 5,695 × 0.02 s = 113.9 s. The motion takes 92.59 s; the rest the vehicle stands at
-/// the stop (our reading, `docs/s4-maglev.md`).
+/// the stop (our reading, `docs/studies/s4.md`).
 pub const PAPER_SPEED_SAMPLES: usize = 5695;
 
 /// The high-speed run's top speed (m/s): 500 km/h, the top of the ETCS speed-accuracy
-/// band and the Transrapid's speed under test conditions. [src: issue 21; SUBSET-041]
+/// band and the Transrapid's speed under test conditions. [src: `[SUBSET-041]`]
 pub const HIGH_SPEED_TOP_SPEED: f64 = 500.0 / 3.6;
 /// Its acceleration limit (m/s²): the Shanghai Transrapid reaches 350 km/h in about
 /// 2 min, 0.81 m/s² on average. [src: operator figures quoted for the Shanghai line]

@@ -86,7 +86,7 @@ pub struct Profile {
 impl Profile {
     /// The paper's test run (§3.1): from 0.2 m/s at 2.5 m/s² up to 5.6 m/s, a cruise,
     /// 2.5 m/s² down to a stop at 506.4 m (after 92.59 s), then standing there until the
-    /// recording's 5,695 speeds are complete (113.9 s; `docs/s4-maglev.md`).
+    /// recording's 5,695 speeds are complete (113.9 s; `docs/studies/s4.md`).
     pub fn paper() -> Self {
         let (v0, v, acc, dec) = (PAPER_START_SPEED, PAPER_TOP_SPEED, PAPER_ACCELERATION, PAPER_DECELERATION);
         let (t_acc, t_dec) = ((v - v0) / acc, v / dec);

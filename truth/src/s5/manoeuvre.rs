@@ -1,5 +1,5 @@
 //! The rudder inputs both S5 truths fly: `truth/data/s5_manoeuvre.json`, one file so
-//! that our 6-DOF and the JSBSim driver cannot drift apart (`docs/s5-missile.md`).
+//! that our 6-DOF and the JSBSim driver cannot drift apart (`docs/studies/s5.md`).
 
 use serde::Deserialize;
 

@@ -1,6 +1,6 @@
 //! S5's numbers, each with its source: the missile's force coefficients before and after
 //! the mid-flight change (the seed's Tables 1 and 2, "true" columns), its SVD-CKF and CKF
-//! figures to print beside ours, and the start of the flight (`docs/s5-missile.md`).
+//! figures to print beside ours, and the start of the flight (`docs/studies/s5.md`).
 
 /// The coefficients' names, in the order of eq. (4) and of the estimator's state.
 pub const NAMES: [&str; 10] = ["Cx0", "Cx_a", "Cx_b", "Cx_d", "Cy0", "Cy_a", "Cy_d", "Cz0", "Cz_b", "Cz_d"];

@@ -9,7 +9,7 @@ use estimator::models::Airframe;
 
 use super::manoeuvre::Manoeuvre;
 
-/// The truth's state: the ten motion states of `docs/s5-missile.md`.
+/// The truth's state: the ten motion states of `docs/studies/s5.md`.
 pub type Motion = [f64; 10];
 
 /// The rigid body flying the manoeuvre, its coefficients switching at `change_at`.
