@@ -7,7 +7,7 @@ from the `table.json` it writes beside its logs.
   measurements, to the last bit (the "vs library" difference is 0 for every run).
 - It leaves one log per run, which the analyzer reads and whose forces are those of the
   FMU at their own time stamps, and one comparison per case (JSON and recording).
-- A weld's peak force is found within 5 % (the issue's goal, and a check that the figure
+- A weld's peak force is found within 5 % (the study's goal, and a check that the figure
   measures something: a filter that missed the weld would fail it).
 """
 

@@ -3,10 +3,11 @@
 //! the SRCKF behind the supervisor. Prints per intensity the largest speed error and its
 //! RMS (from telegram 50 on), the telegrams the gate rejected that no fault excuses, the
 //! spikes it let through, and the worst seed's rejections on the same run without faults.
-//! It is how `Tuning::paper` (10 m²/s⁵) and `Tuning::jerk_limited` (0.01) were chosen:
-//! small enough to smooth the speed, large enough to follow the run without rejecting
-//! good telegrams. It makes no claim of its own; `studies/tests/s4_ours.rs` checks the
-//! chosen tunings against the goals.
+//! It is the sweep `Tuning::jerk_limited`'s documentation quotes, behind the choice of
+//! `Tuning::paper` (10 m²/s⁵) and `Tuning::jerk_limited` (0.01): small enough to smooth
+//! the speed, large enough to follow the run without rejecting good telegrams. A probe,
+//! it makes no claim of its own; `studies/tests/s4_ours.rs` checks the chosen tunings
+//! against the goals.
 //!
 //!   cargo run --release -p studies --example s4_tuning_sweep
 

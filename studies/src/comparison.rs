@@ -68,3 +68,20 @@ pub fn write_table(dir: &Path, table: &impl serde::Serialize) -> anyhow::Result<
 pub fn units(pairs: &[(&'static str, &'static str)]) -> BTreeMap<&'static str, &'static str> {
     pairs.iter().copied().collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_table_is_written_to_table_json_in_its_directory_with_nan_as_null() {
+        let dir = std::env::temp_dir().join(format!("kalfmu-write-table-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let table = serde_json::json!({ "correlation": 0.5, "coverage": f64::NAN });
+        let path = write_table(&dir, &table).unwrap();
+        assert_eq!(path, dir.join("table.json"));
+        let written: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        assert_eq!(written, serde_json::json!({ "correlation": 0.5, "coverage": null }));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

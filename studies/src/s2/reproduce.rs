@@ -253,7 +253,7 @@ const UNITS: [(&str, &str); 13] = [
 ];
 
 /// Where the paper's figures come from.
-const PAPER_SOURCE: &str = "SRCKF figures of the seed study for wheelset 1 at 200 Hz";
+const PAPER_SOURCE: &str = "SRCKF figures of the paper (Chen et al. 2025) for wheelset 1 at 200 Hz";
 
 /// Runs S2 through its FMU, prints the tables and writes them as `table.json` in
 /// `out/s2`; returns the number of failed runs.
@@ -504,5 +504,58 @@ fn peak(case: Case, error: f64) -> String {
 
 /// The weld's peak error `error` (a fraction) in percent; `None` for the other cases.
 fn weld_percent(case: Case, error: f64) -> Option<f64> {
-    (case == Case::Weld).then(|| 100.0 * error)
+    (case == Case::Weld).then_some(100.0 * error)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wheel's figures in the units `WheelFigures` has them: forces in N.
+    fn wheel() -> WheelFigures {
+        WheelFigures {
+            correlation: 0.99,
+            rmse: 300.0,
+            running_rmse_mean: 250.0,
+            running_rmse_var: 4.0e4,
+            dynamic_std: 3000.0,
+            peak_error: -0.5,
+            band: Some((1.0, 27.0)),
+            two_sigma: f64::NAN,
+        }
+    }
+
+    #[test]
+    fn a_wheel_is_written_in_the_tables_units_and_under_their_names() {
+        let after_step = WheelFigures { correlation: 0.98, ..wheel() };
+        let json = serde_json::to_value(WheelTable::new(Case::Weld, 2, &wheel(), &after_step)).unwrap();
+        let expected = serde_json::json!({
+            "wheelset": 2,
+            "correlation": 0.99,
+            "rmse": 0.3,
+            "running_rmse_mean": 0.25,
+            "running_rmse_variance": 0.04,
+            "dynamic_std": 3.0,
+            "rmse_over_dynamic_std": 0.1,
+            "weld_peak_error": -50.0,
+            "psd_agreement_band": [1.0, 27.0],
+            "two_sigma_coverage": null,
+            "after_step_correlation": 0.98,
+        });
+        assert_eq!(json, expected);
+        // Each dimensional figure has its unit in the table's `units`.
+        let units = units(&UNITS);
+        for (name, unit) in [("rmse", "kN"), ("running_rmse_variance", "kN²"), ("weld_peak_error", "%")] {
+            assert_eq!(units[name], unit, "{name}");
+        }
+    }
+
+    #[test]
+    fn only_the_weld_has_a_peak_error() {
+        for case in [Case::Random, Case::Corrugation] {
+            assert_eq!(WheelTable::new(case, 1, &wheel(), &wheel()).weld_peak_error, None, "{}", case.name());
+            assert_eq!(peak(case, -0.5), "—");
+        }
+        assert_eq!(peak(Case::Weld, -0.5), "-50.0 %");
+    }
 }

@@ -1,6 +1,6 @@
 //! S4 in `kalfmu reproduce`: on the paper's test run (and, without `--quick`, the
 //! 500 km/h run), with the default faults, every filter kind through the packaged FMU,
-//! checked against the same filter in-process; then the issue's table (`s4-compare`'s)
+//! checked against the same filter in-process; then the study's table (`s4-compare`'s)
 //! with ours read from the FMU's outputs (SRCKF, the FMU's default), beside the raw
 //! average and the paper's pipeline (in-process: the paper's method, not our FMU); one
 //! log per run and one comparison recording per profile (`out/s4/`), and the figures as
@@ -131,7 +131,7 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     println!(
         "S4: maglev position and speed from four PRW position channels (head/tail × left/right, a telegram every \
-         0.02 s), the default faults of docs/s4-maglev.md, seed {seed}; ours from {} driven through the fmi importer, \
+         0.02 s), the default faults of docs/studies/s4.md, seed {seed}; ours from {} driven through the fmi importer, \
          logs and recordings in {}",
         fmu_dir.join(format!("{IDENTIFIER}.fmu")).display(),
         dir.display()

@@ -70,7 +70,7 @@ pub struct TableSettings {
     pub seed: u64,
     /// The sample time of the measurements and of the FMU's step (s).
     pub sample_time: f64,
-    /// The sensor noise as a multiple of docs/s5-missile.md's.
+    /// The sensor noise as a multiple of docs/studies/s5.md's.
     pub noise_scale: f64,
 }
 
@@ -164,7 +164,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
     let tuning = Tuning::new(settings.noise_scale);
     println!(
         "S5: tactical-missile force coefficients online, 20 states, 12 measurements every {} s — truth 1: the paper's \
-         6-DOF (flat Earth, ISA), the ten coefficients changing at 10 s; sensor noise as docs/s5-missile.md × {}, seed {}",
+         6-DOF (flat Earth, ISA), the ten coefficients changing at 10 s; sensor noise as docs/studies/s5.md × {}, seed {}",
         settings.sample_time, settings.noise_scale, settings.seed
     );
     println!(
@@ -232,16 +232,18 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
     Ok(failures)
 }
 
+/// S5's second truth's driver, from the repository's root.
+const DRIVER: &str = "truth/s5_jsbsim/fly.py";
+
 /// The second truth: JSBSim through its Python driver, once per filter; prints the tables
 /// and returns the number of failed runs and the tables' figures.
 fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: usize) -> (usize, TruthFigures) {
-    let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("../truth/s5_jsbsim/fly.py");
+    // The driver is found from where this crate was built: the repository's truth/.
+    let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DRIVER);
     println!(
-        "truth 2: JSBSim (WGS84 rotating Earth, US 1976 atmosphere) flies the same manoeuvre; {} steps the FMU \
+        "truth 2: JSBSim (WGS84 rotating Earth, US 1976 atmosphere) flies the same manoeuvre; {DRIVER} steps the FMU \
          through fmpy every {} s (seed {})",
-        driver.display(),
-        settings.sample_time,
-        settings.seed
+        settings.sample_time, settings.seed
     );
     let stem = dir.join("jsbsim");
     let mut failures = 0;
