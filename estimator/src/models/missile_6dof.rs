@@ -61,7 +61,7 @@ pub struct Air {
 }
 
 impl Airframe {
-    /// The seed's missile (mass, area, length) with the project's inertias and moment
+    /// The paper's missile (mass, area, length) with the project's inertias and moment
     /// model (our estimates, `docs/studies/s5.md`).
     pub fn tactical_missile() -> Self {
         Self {

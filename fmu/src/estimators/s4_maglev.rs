@@ -230,7 +230,7 @@ pub(super) fn descriptor() -> Descriptor {
         model_identifier: "kalfmu_s4_maglev",
         model_name: "kalfmu S4 maglev speed and position from four PRW channels",
         description: "Fuses a maglev train's four long-stator position channels into its position, speed and acceleration, flagging faulty channels",
-        documentation: "<p>Study S4 (seed 003): four redundant long-stator (PRW) position channels, head and tail, \
+        documentation: "<p>Study S4, after <i>Weighted fusion-based unscented Kalman filter positioning algorithm for normal-conducting high-speed maglev trains</i> (2024): four redundant long-stator (PRW) position channels, head and tail, \
          left and right, a telegram every {sample_time}, fused into the train's position, speed and acceleration \
          with their σ. The paper differences each channel's positions into a speed, rejects outliers by Grubbs' test, weights \
          the rest adaptively and runs a UKF on the fused speed; this estimator filters the four positions instead \
