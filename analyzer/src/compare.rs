@@ -1,6 +1,7 @@
 //! Runs of one case compared: each run's estimates against the truth they share, in one
 //! table across the runs (rows are runs, columns are the metrics, the best value marked),
-//! one JSON document, and one Rerun recording (`rrd.rs`).
+//! then one table of each run's consistency figures (NEES, NIS: `consistency.rs`), one
+//! JSON document, and one Rerun recording (`rrd.rs`).
 //!
 //! Runs are comparable when they share their truth: the same compared truth signals, at
 //! the same times, with the same values bit for bit (the same case and seed), and the same
@@ -68,8 +69,12 @@ fn band_text(p: &PairReport) -> String {
     p.psd_agreement_band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.2}"))
 }
 
+fn normalised_error_text(p: &PairReport) -> String {
+    p.normalised_error.map_or("—".into(), |n| format!("{} {}", significant(n.mean_square), n.reading.text()))
+}
+
 /// The metrics compared, in table order.
-pub const COLUMNS: [Column; 10] = [
+pub const COLUMNS: [Column; 12] = [
     Column {
         key: "correlation",
         heading: "corr",
@@ -119,6 +124,15 @@ pub const COLUMNS: [Column; 10] = [
         where_defined: false,
     },
     Column {
+        key: "one_sigma_coverage",
+        heading: "1σ cov",
+        // A consistent Gaussian estimate has 68.27 % of its errors within ±σ.
+        goal: Goal::Nearest(0.6827),
+        value: |p| p.one_sigma_coverage,
+        text: |p| p.one_sigma_coverage.map_or("—".into(), |v| format!("{v:.3}")),
+        where_defined: true,
+    },
+    Column {
         key: "two_sigma_coverage",
         heading: "2σ cov",
         // A consistent Gaussian estimate has 95.45 % of its errors within ±2σ.
@@ -126,6 +140,16 @@ pub const COLUMNS: [Column; 10] = [
         value: |p| p.two_sigma_coverage,
         text: |p| p.two_sigma_coverage.map_or("—".into(), |v| format!("{v:.3}")),
         where_defined: false,
+    },
+    Column {
+        key: "normalised_error",
+        heading: "(e/σ)² mean",
+        // Scored by its logarithm: a σ twice too wide (0.25) is as far from 1 as one twice
+        // too narrow (4).
+        goal: Goal::Nearest(0.0),
+        value: |p| p.normalised_error.map(|n| n.mean_square.ln()),
+        text: normalised_error_text,
+        where_defined: true,
     },
     Column {
         key: "in_tolerance",
@@ -154,6 +178,103 @@ pub const COLUMNS: [Column; 10] = [
     },
 ];
 
+/// A column of the consistency table: one figure of a run (its NEES or NIS).
+#[derive(Debug, Clone, Copy)]
+pub struct RunColumn {
+    /// Its key in the JSON report's `best_consistency`.
+    pub key: &'static str,
+    /// Its heading.
+    pub heading: &'static str,
+    /// Which value is best (`None`: none is, the column informs).
+    pub goal: Option<Goal>,
+    /// Its value for a run's report (`None`: not defined for it).
+    pub value: fn(&Report) -> Option<f64>,
+    /// Its text for a run's report.
+    pub text: fn(&Report) -> String,
+}
+
+fn or_dash(v: Option<f64>, text: impl Fn(f64) -> String) -> String {
+    v.map_or("—".into(), text)
+}
+
+/// The consistency figures of a run, in table order.
+pub const RUN_COLUMNS: [RunColumn; 7] = [
+    RunColumn {
+        key: "nees_mean",
+        heading: "NEES mean/dof",
+        // Scored by its ratio to its expectation, in logarithm (see `normalised_error`).
+        goal: Some(Goal::Nearest(0.0)),
+        value: |r| r.nees.as_ref().map(|n| (n.mean / n.dof as f64).ln()),
+        text: |r| r.nees.as_ref().map_or("—".into(), |n| format!("{}/{}", significant(n.mean), n.dof)),
+    },
+    RunColumn {
+        key: "nees_in_band",
+        heading: "NEES in 95 %",
+        goal: Some(Goal::Nearest(0.95)),
+        value: |r| r.nees.as_ref().map(|n| n.in_band),
+        text: |r| or_dash(r.nees.as_ref().map(|n| n.in_band), |v| format!("{v:.3}")),
+    },
+    RunColumn {
+        key: "nis_mean",
+        heading: "NIS mean",
+        goal: None,
+        value: |r| r.nis.as_ref().map(|n| n.mean),
+        text: |r| or_dash(r.nis.as_ref().map(|n| n.mean), significant),
+    },
+    RunColumn {
+        key: "nis_rows_used_mean",
+        heading: "rows used",
+        goal: None,
+        value: |r| r.nis.as_ref().and_then(|n| n.rows_used_mean),
+        text: |r| match &r.nis {
+            None => "—".into(),
+            Some(n) => n.rows_used_mean.map_or("unknown".into(), |v| format!("{v:.3}")),
+        },
+    },
+    RunColumn {
+        key: "nis_ratio",
+        heading: "NIS/rows",
+        goal: Some(Goal::Nearest(0.0)),
+        value: |r| r.nis.as_ref().and_then(|n| n.ratio).map(f64::ln),
+        text: |r| or_dash(r.nis.as_ref().and_then(|n| n.ratio), significant),
+    },
+    RunColumn {
+        key: "nis_in_band",
+        heading: "NIS in 95 %",
+        goal: Some(Goal::Nearest(0.95)),
+        value: |r| r.nis.as_ref().and_then(|n| n.in_band),
+        text: |r| or_dash(r.nis.as_ref().and_then(|n| n.in_band), |v| format!("{v:.3}")),
+    },
+    RunColumn {
+        key: "nis_reading",
+        heading: "NIS reading",
+        goal: None,
+        value: |r| r.nis.as_ref().and_then(|n| n.ratio),
+        text: |r| r.nis.as_ref().and_then(|n| n.reading).map_or("—".into(), |v| v.text().into()),
+    },
+];
+
+/// The index of the best of `values` for `goal` (the first of equals); `None` if none is finite.
+fn best_of(goal: Goal, values: impl Iterator<Item = Option<f64>>) -> Option<usize> {
+    let score = |v: f64| match goal {
+        Goal::Highest => -v,
+        Goal::Lowest => v,
+        Goal::Nearest(target) => (v - target).abs(),
+    };
+    values
+        .enumerate()
+        .filter_map(|(i, v)| v.filter(|v| v.is_finite()).map(|v| (i, score(v))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+impl RunColumn {
+    /// The index of the best of these runs; `None` if no value is defined or none is best.
+    pub fn best(&self, runs: &[Report]) -> Option<usize> {
+        best_of(self.goal?, runs.iter().map(|r| (self.value)(r)))
+    }
+}
+
 impl Column {
     /// Whether the tables of these pairs (one signal's, one per run) show this column.
     pub fn shown(&self, pairs: &[&PairReport]) -> bool {
@@ -162,17 +283,7 @@ impl Column {
 
     /// The index of the best of these pairs (the first of equals); `None` if no value is defined.
     pub fn best(&self, pairs: &[&PairReport]) -> Option<usize> {
-        let score = |v: f64| match self.goal {
-            Goal::Highest => -v,
-            Goal::Lowest => v,
-            Goal::Nearest(target) => (v - target).abs(),
-        };
-        pairs
-            .iter()
-            .enumerate()
-            .filter_map(|(i, p)| (self.value)(p).filter(|v| v.is_finite()).map(|v| (i, score(v))))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(i, _)| i)
+        best_of(self.goal, pairs.iter().map(|p| (self.value)(p)))
     }
 }
 
@@ -186,6 +297,9 @@ pub struct Comparison<'a> {
     /// Per compared signal (in the order of the first run's pairs), the label of the best
     /// run for each metric key; empty with a single run.
     pub best: Vec<BTreeMap<String, String>>,
+    /// The label of the best run for each consistency figure that has a best
+    /// ([`RUN_COLUMNS`]' keys); empty with a single run.
+    pub best_consistency: BTreeMap<String, String>,
 }
 
 /// Analyses each run (on every core) and compares them; refuses runs that do not share
@@ -212,7 +326,15 @@ pub fn compare_runs<'a>(runs: &'a [Run], options: &Options) -> Result<Comparison
             best.push(of_signal);
         }
     }
-    Ok(Comparison { labels, runs: reports, best })
+    let mut best_consistency = BTreeMap::new();
+    if reports.len() > 1 {
+        for column in &RUN_COLUMNS {
+            if let Some(i) = column.best(&reports) {
+                best_consistency.insert(column.key.to_string(), labels[i].clone());
+            }
+        }
+    }
+    Ok(Comparison { labels, runs: reports, best, best_consistency })
 }
 
 /// The runs' short names: their filters if every run names a different one, else their
@@ -304,7 +426,6 @@ impl Comparison<'_> {
         for (i, report) in self.runs.iter().enumerate() {
             let _ = writeln!(out, "{}: {}", self.labels[i], report.file);
         }
-        let width = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0).max(3);
         for k in 0..self.runs.first().map_or(0, |r| r.pairs.len()) {
             let pairs: Vec<&PairReport> = self.runs.iter().map(|r| &r.pairs[k]).collect();
             let p = pairs[0];
@@ -325,34 +446,69 @@ impl Comparison<'_> {
                 );
             }
             let columns: Vec<&Column> = COLUMNS.iter().filter(|c| c.shown(&pairs)).collect();
+            let headings: Vec<&str> = columns.iter().map(|c| c.heading).collect();
             let best: Vec<Option<usize>> = columns.iter().map(|c| c.best(&pairs)).collect();
             let cells: Vec<Vec<String>> =
                 pairs.iter().map(|pair| columns.iter().map(|column| (column.text)(pair)).collect()).collect();
-            let widths: Vec<usize> = columns
-                .iter()
-                .enumerate()
-                .map(|(j, c)| {
-                    cells.iter().map(|row| row[j].chars().count() + 1).fold(c.heading.chars().count(), usize::max)
-                })
-                .collect();
-            let _ = write!(out, "{:<width$}", "run");
-            for (column, w) in columns.iter().zip(&widths) {
-                let _ = write!(out, "  {:>w$}", column.heading);
-            }
-            out.push('\n');
-            for (i, row) in cells.iter().enumerate() {
-                let _ = write!(out, "{:<width$}", self.labels[i]);
-                for ((text, best), w) in row.iter().zip(&best).zip(&widths) {
-                    let mark = if marks && *best == Some(i) { "*" } else { " " };
-                    let _ = write!(out, "  {:>w$}", format!("{text}{mark}"), w = w);
+            self.write_rows(&mut out, &headings, &cells, &best);
+        }
+        if self.runs.iter().any(|r| r.nees.is_some() || r.nis.is_some()) {
+            let first = &self.runs[0];
+            let from = first.pairs.first().map_or(0.0, |p| p.compared_from);
+            let _ = writeln!(out, "\nconsistency from t = {from} s");
+            // What each run's NEES sums and how its rows used were derived: once if the same for all.
+            let notes = |note: fn(&Report) -> Option<String>| {
+                let texts: Vec<Option<String>> = self.runs.iter().map(note).collect();
+                if texts.iter().all(|t| *t == texts[0]) {
+                    texts[0].iter().map(|t| format!("{t}\n")).collect::<String>()
+                } else {
+                    let labelled = self.labels.iter().zip(&texts);
+                    labelled.filter_map(|(l, t)| t.as_ref().map(|t| format!("{l}: {t}\n"))).collect()
                 }
-                out.push('\n');
-            }
+            };
+            out.push_str(&notes(|r| {
+                r.nees.as_ref().map(|n| format!("NEES: Σ (e/σ)² over {} ({} dof)", n.signals.join(", "), n.dof))
+            }));
+            out.push_str(&notes(|r| r.nis.as_ref().map(|n| format!("NIS rows used: {}", n.rows_used_from))));
+            let headings: Vec<&str> = RUN_COLUMNS.iter().map(|c| c.heading).collect();
+            let best: Vec<Option<usize>> = RUN_COLUMNS.iter().map(|c| c.best(&self.runs)).collect();
+            let cells: Vec<Vec<String>> =
+                self.runs.iter().map(|run| RUN_COLUMNS.iter().map(|column| (column.text)(run)).collect()).collect();
+            self.write_rows(&mut out, &headings, &cells, &best);
         }
         if marks {
-            let _ = writeln!(out, "\n* best of the runs (2σ cov: nearest 0.9545; PSD band: widest)");
+            let _ = writeln!(
+                out,
+                "\n* best of the runs (1σ cov: nearest 0.6827; 2σ cov: nearest 0.9545, NEES and NIS in 95 %: \
+                 nearest 0.95; (e/σ)², NEES/dof and NIS/rows: nearest 1 in ratio; PSD band: widest)"
+            );
         }
         out
+    }
+
+    /// Writes a table: a heading row, then a row per run (labelled), the best of each
+    /// column marked `*` with two runs or more.
+    fn write_rows(&self, out: &mut String, headings: &[&str], cells: &[Vec<String>], best: &[Option<usize>]) {
+        let marks = self.runs.len() > 1;
+        let width = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0).max(3);
+        let widths: Vec<usize> = headings
+            .iter()
+            .enumerate()
+            .map(|(j, h)| cells.iter().map(|row| row[j].chars().count() + 1).fold(h.chars().count(), usize::max))
+            .collect();
+        let _ = write!(out, "{:<width$}", "run");
+        for (heading, w) in headings.iter().zip(&widths) {
+            let _ = write!(out, "  {heading:>w$}");
+        }
+        out.push('\n');
+        for (i, row) in cells.iter().enumerate() {
+            let _ = write!(out, "{:<width$}", self.labels[i]);
+            for ((text, best), w) in row.iter().zip(best).zip(&widths) {
+                let mark = if marks && *best == Some(i) { "*" } else { " " };
+                let _ = write!(out, "  {:>w$}", format!("{text}{mark}"), w = w);
+            }
+            out.push('\n');
+        }
     }
 
     /// Writes the comparison as JSON: the labels, every run's report, and the best runs.

@@ -13,6 +13,7 @@
 //! ```
 
 pub mod compare;
+pub mod consistency;
 pub mod metrics;
 pub mod psd;
 pub mod report;

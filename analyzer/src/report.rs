@@ -2,7 +2,8 @@
 //!
 //! Pairing rule: a signal `X` on `/truth` pairs with the signal of the same
 //! name on `/estimate` (or the channel [`Options::estimate_topic`] names); `X_std` on `/estimate`, if present, is its standard
-//! deviation (for the ±2σ band and its coverage). `--pair truth.X=estimate.Y`
+//! deviation (for the ±2σ band, the 1σ and 2σ coverages and the normalised errors of
+//! `consistency.rs`). `--pair truth.X=estimate.Y`
 //! adds or replaces a pair. Samples are matched by time stamp; only the
 //! times both channels have are compared.
 //!
@@ -15,6 +16,8 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::compare::pair_name;
+use crate::consistency::{innovation_consistency, nees, sigma_figures, Nees, Nis, NormalisedError};
 use crate::metrics::{compare_with_running_rmse, running_rmse, Metrics};
 use crate::psd::{agreement_band, welch_pair, Spectrum};
 use log_format::read::Run;
@@ -69,8 +72,14 @@ pub struct PairReport<'a> {
     /// The metrics.
     #[serde(flatten)]
     pub metrics: Metrics,
-    /// Fraction of samples whose error is within ±2σ (`None` without σ).
+    /// Fraction of samples whose error is within ±σ (`None` without σ; 0.6827 for a
+    /// Gaussian error with an honest σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// Fraction of samples whose error is within ±2σ (`None` without σ; 0.9545 for a
+    /// Gaussian error with an honest σ).
     pub two_sigma_coverage: Option<f64>,
+    /// The mean of `(e/σ)²` (expectation 1) with its reading (`None` without σ).
+    pub normalised_error: Option<NormalisedError>,
     /// The accuracy requirement on the truth signal, if `/truth` has its `<truth>_tolerance`.
     pub tolerance: Option<Tolerance<'a>>,
     /// Fraction of samples whose error is within ± the tolerance (`None` without one).
@@ -131,6 +140,10 @@ pub struct Report<'a> {
     pub agreement_db: f64,
     /// One entry per pair.
     pub pairs: Vec<PairReport<'a>>,
+    /// The NEES of the pairs that have a σ (`None` if none has).
+    pub nees: Option<Nees>,
+    /// The NIS consistency (`None` if `/estimate` has no `nis`).
+    pub nis: Option<Nis>,
 }
 
 /// Analyses a run.
@@ -182,6 +195,7 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
         )));
     }
     let mut reports = Vec::new();
+    let (mut nees_signals, mut nees_squares) = (Vec::new(), Vec::new());
     for (t_name, e_name) in pairs {
         let t_signal = truth.signal(&t_name).ok_or_else(|| fail(format!("{TRUTH} has no signal '{t_name}'")))?;
         let e_signal = estimate.signal(&e_name).ok_or_else(|| fail(format!("{topic} has no signal '{e_name}'")))?;
@@ -208,10 +222,7 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
         let running_rmse = running_rmse(&truth_values, &estimate_values, w);
         let (t, e) = (&truth_values[first..], &estimate_values[first..]);
         let metrics = compare_with_running_rmse(t, e, &running_rmse[first..], time[first], dt);
-        let two_sigma_coverage = sigma.as_ref().map(|s| {
-            let inside = t.iter().zip(e).zip(&s[first..]).filter(|((t, e), s)| (*e - *t).abs() <= 2.0 * *s).count();
-            inside as f64 / t.len() as f64
-        });
+        let sigma_figures = sigma.as_ref().map(|s| sigma_figures(t, e, &s[first..]));
         let tolerance_signal = format!("{t_name}{TOLERANCE_SUFFIX}");
         let tolerance = match truth.signal(&tolerance_signal) {
             Some(s) => {
@@ -240,7 +251,9 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             samples: time.len() - first,
             compared_from: time[first],
             metrics,
-            two_sigma_coverage,
+            one_sigma_coverage: sigma_figures.as_ref().map(|f| f.one_sigma_coverage),
+            two_sigma_coverage: sigma_figures.as_ref().map(|f| f.two_sigma_coverage),
+            normalised_error: sigma_figures.as_ref().map(|f| f.normalised_error),
             tolerance,
             in_tolerance,
             psd_agreement_band: agreement_band(&truth_spectrum, &estimate_spectrum, options.agreement_db),
@@ -252,6 +265,10 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
             truth_spectrum,
             estimate_spectrum,
         });
+        if let Some(figures) = sigma_figures {
+            nees_signals.push(pair_name(&reports[reports.len() - 1]));
+            nees_squares.push(figures.squares);
+        }
     }
     Ok(Report {
         file: run.file.display().to_string(),
@@ -260,6 +277,8 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
         psd_segment: options.psd_segment,
         agreement_db: options.agreement_db,
         pairs: reports,
+        nees: nees(nees_signals, &nees_squares),
+        nis: innovation_consistency(run, time[first]),
     })
 }
 

@@ -218,7 +218,7 @@ const CONTROLS_TIMING: &str = concat!(
 /// Gross errors and the health flags, for `documentation/index.html` (`estimator::Supervisor`).
 /// `{gate_sigmas}` says how wide the default gate is (see [`documentation`]).
 const SUPERVISION: &str = concat!(
-    "<p>Every update goes through a supervisor (estimator/src/supervisor.rs):</p>\n<ul>\n",
+    "<p>Every update goes through a supervisor (the estimation library's <code>SupervisedFilter</code>, as in every study):</p>\n<ul>\n",
     "<li><b>Gate.</b> A measurement row whose normalised innovation ν²/S exceeds the χ²(1) quantile of ",
     "{gate_probability} is left out of that update, exactly as a missing one, and counted in ",
     "<code>rejected_measurements</code>; so is the worst row when the rows kept fail together. ",

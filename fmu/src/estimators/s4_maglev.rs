@@ -2,7 +2,7 @@
 //! long-stator (PRW) position channels, each channel's offset a state
 //! (`estimator::models::PrwTrain`), an absolute marker when one passes. Resent telegrams
 //! are stuck from their first repeat, spikes fail the gate, slot slips are the
-//! supervisor's quantised bias steps of one slot pitch (`scenarios::s4::ours`).
+//! supervisor's quantised bias steps of one slot pitch (`studies::s4::ours`).
 
 use estimator::models::PrwTrain;
 use estimator::{

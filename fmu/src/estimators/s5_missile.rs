@@ -8,7 +8,7 @@
 //!
 //! Parameters: the airframe (`Airframe::tactical_missile()` by default), the prior of all 20
 //! states, and the noise (tunable), with the defaults of the study's tuning
-//! (`scenarios/src/s5/study.rs`, `Tuning::new(1.0)`): the FMU cannot depend on the study,
+//! (`studies/src/s5/study.rs`, `Tuning::new(1.0)`): the FMU cannot depend on the study,
 //! so the numbers are copied here.
 
 use estimator::models::{Airframe, Missile6Dof, MomentModel};
