@@ -9,6 +9,10 @@ the `table.json` it writes beside its logs.
   measurements up to t: it correlates worse than the estimate that has the
   measurement of its own instant.
 - Each run is logged and each case compared (JSON and recording).
+- Beside its accuracy, each filter's σ of the load is checked by the analyzer's figures,
+  which the table carries as the comparison has them: the 1σ and 2σ coverage of F, its
+  mean (e/σ)² with its reading, and the run's NIS/rows with its reading. F's ±2σ holds at
+  least 90 % of its errors for every filter (0.944 to 0.958 in the quick run).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ PAPER = {
     "damping/harmonic": {"correlation": 0.999, "running_rmse_peak": 0.234, "running_rmse_max_converged": None},
 }
 CORRELATION_GOAL = {"stiffness": 0.998, "damping": 0.999}
+READINGS = {"consistent", "too wide", "too narrow"}
 
 
 @pytest.fixture(scope="module")
@@ -91,3 +96,44 @@ def test_each_run_is_logged_and_each_case_compared(reproduced):
         comparison = json.loads((out / "s1" / f"{stem}.json").read_text())
         assert comparison["labels"] == FILTERS
         assert (out / "s1" / f"{stem}.rrd").stat().st_size > 0
+
+
+def assert_reading_of_its_interval(value: float, interval: list[float], reading: str, where) -> None:
+    """`reading` is what `value` says against the 95 % interval of an honest σ."""
+    assert reading in READINGS, where
+    low, high = interval
+    expected = "too wide" if value < low else "too narrow" if value > high else "consistent"
+    assert reading == expected, (where, value, interval, reading)
+
+
+def test_every_filter_has_the_sigma_figures_of_the_load_and_of_its_innovations(reproduced):
+    _, table = reproduced
+    for (case, kind), f in filters(table).items():
+        ours, where = f["feedthrough"], (case, kind)
+        one, two = ours["one_sigma_coverage"], ours["two_sigma_coverage"]
+        assert 0.0 <= one <= two <= 1.0, (where, one, two)
+        normalised = ours["normalised_error"]
+        assert normalised["mean_square"] > 0, where
+        assert_reading_of_its_interval(
+            normalised["mean_square"], normalised["interval"], normalised["reading"], where
+        )
+        nis = f["nis"]
+        assert nis["ratio"] > 0 and nis["rows_used_mean"] > 0, (where, nis)
+        assert_reading_of_its_interval(nis["ratio"], nis["interval"], nis["reading"], where)
+
+
+def test_the_two_sigma_band_of_the_load_holds_at_least_ninety_percent_of_its_errors(reproduced):
+    _, table = reproduced
+    coverage = {key: f["feedthrough"]["two_sigma_coverage"] for key, f in filters(table).items()}
+    assert all(c >= 0.9 for c in coverage.values()), coverage
+
+
+def test_the_sigma_figures_are_the_comparisons(reproduced):
+    out, table = reproduced
+    for case in table["cases"]:
+        comparison = json.loads((out / "s1" / f"{case['case'].replace('/', '_')}.json").read_text())
+        for f, run in zip(case["filters"], comparison["runs"], strict=True):
+            (load,) = [p for p in run["pairs"] if p["truth"] == "F"]
+            for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
+                assert f["feedthrough"][field] == load[field], (case["case"], f["filter"], field)
+            assert f["nis"] == run["nis"], (case["case"], f["filter"])

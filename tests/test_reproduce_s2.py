@@ -9,11 +9,16 @@ from the `table.json` it writes beside its logs.
   FMU at their own time stamps, and one comparison per case (JSON and recording).
 - A weld's peak force is found within 5 % (the study's goal, and a check that the figure
   measures something: a filter that missed the weld would fail it).
+- Beside its accuracy, each wheel's σ is checked by the analyzer's figures, which the table
+  carries as the comparison has them: the 1σ and 2σ coverage of each wheel's force, its
+  mean (e/σ)² with its reading (and the wheel farthest from 1), and the run's NIS/rows
+  with its reading.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 
 import pytest
@@ -27,6 +32,7 @@ PAPER = {
     "corrugation": {"correlation": 0.999, "running_rmse_mean": 0.142, "running_rmse_variance": 0.028},
     "weld": {"correlation": 0.969, "running_rmse_mean": 0.101, "running_rmse_variance": 0.004},
 }
+READINGS = {"consistent", "too wide", "too narrow"}
 
 
 @pytest.fixture(scope="module")
@@ -112,3 +118,50 @@ def test_each_run_is_logged_and_each_case_compared(reproduced, analyzer_bin, tmp
     assert run["metadata"]["study"] == "S2" and run["metadata"]["filter"] == "SRCKF"
     # 2.5 s at 1 kHz: the reads at t = 0, 1 ms, …, 2.5 s.
     assert {p["samples"] for p in run["pairs"]} == {2501}
+
+
+def assert_reading_of_its_interval(value: float, interval: list[float], reading: str, where) -> None:
+    """`reading` is what `value` says against the 95 % interval of an honest σ."""
+    assert reading in READINGS, where
+    low, high = interval
+    expected = "too wide" if value < low else "too narrow" if value > high else "consistent"
+    assert reading == expected, (where, value, interval, reading)
+
+
+def test_every_wheel_of_every_filter_has_its_sigma_figures_and_every_run_its_nis(reproduced):
+    _, table = reproduced
+    for (case, kind), run in runs(table).items():
+        for w in run["wheels"]:
+            where = (case, kind, w["wheelset"])
+            assert 0.0 <= w["one_sigma_coverage"] <= w["two_sigma_coverage"] <= 1.0, where
+            normalised = w["normalised_error"]
+            assert normalised["mean_square"] > 0, where
+            assert_reading_of_its_interval(
+                normalised["mean_square"], normalised["interval"], normalised["reading"], where
+            )
+        nis = run["nis"]
+        assert nis["ratio"] > 0 and nis["rows_used_mean"] > 0, (case, kind, nis)
+        assert_reading_of_its_interval(nis["ratio"], nis["interval"], nis["reading"], (case, kind))
+
+
+def test_the_worst_wheels_sigma_figures_are_the_worst_of_the_four(reproduced):
+    _, table = reproduced
+    for (case, kind), run in runs(table).items():
+        wheels, worst = run["wheels"], run["worst_wheel"]
+        assert worst["one_sigma_coverage_min"] == min(w["one_sigma_coverage"] for w in wheels), (case, kind)
+        # Farthest from 1 in ratio: a σ twice too wide is as far off as one twice too narrow.
+        farthest = max(wheels, key=lambda w: abs(math.log(w["normalised_error"]["mean_square"])))
+        assert worst["normalised_error_worst_wheelset"] == farthest["wheelset"], (case, kind)
+        assert worst["normalised_error_worst"] == farthest["normalised_error"], (case, kind)
+
+
+def test_the_sigma_figures_are_the_comparisons(reproduced):
+    out, table = reproduced
+    for case in table["cases"]:
+        comparison = json.loads((out / "s2" / f"{case['case']}.json").read_text())
+        for f, run in zip(case["filters"], comparison["runs"], strict=True):
+            for w, pair in zip(f["wheels"], run["pairs"], strict=True):
+                assert pair["truth"] == f"F_N{w['wheelset']}"
+                for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
+                    assert w[field] == pair[field], (case["case"], f["filter"], w["wheelset"], field)
+            assert f["nis"] == run["nis"], (case["case"], f["filter"])

@@ -8,6 +8,9 @@ the `table.json` it writes beside its logs.
   slot slip and offset is caught, with false alarms under 0.1 % of the
   channel-telegrams.
 - Each run is logged, the analyzer reads it, and the runs are compared in one recording.
+- Beside its accuracy, each filter's σ of speed and position is checked by the analyzer's
+  figures, which the table carries as the comparison has them: their 1σ and 2σ coverage,
+  mean (e/σ)² with its reading, and the run's NIS/rows with its reading.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import subprocess
 import pytest
 
 FILTERS = ["CKF", "SRCKF", "SVD-CKF", "UKF", "EKF"]
+READINGS = {"consistent", "too wide", "too narrow"}
 ESTIMATORS = ["raw_average", "paper_fused", "paper_fused_ukf", "ours"]
 
 
@@ -98,3 +102,39 @@ def test_each_run_is_logged_and_compared_in_one_recording(reproduced, analyzer_b
         assert proc.returncode == 0, proc.stderr
         assert proc.stdout.startswith(f"{name}: ") and "speed" in proc.stdout
     assert (out / "s4" / "paper.rrd").stat().st_size > 0
+
+
+def assert_reading_of_its_interval(value: float, interval: list[float], reading: str, where) -> None:
+    """`reading` is what `value` says against the 95 % interval of an honest σ."""
+    assert reading in READINGS, where
+    low, high = interval
+    expected = "too wide" if value < low else "too narrow" if value > high else "consistent"
+    assert reading == expected, (where, value, interval, reading)
+
+
+def test_every_filter_has_the_sigma_figures_of_speed_and_position_and_its_nis(paper_run):
+    assert [f["filter"] for f in paper_run["filters"]] == FILTERS
+    for f in paper_run["filters"]:
+        for signal in ["speed", "position"]:
+            figures, where = f[signal], (f["filter"], signal)
+            assert 0.0 <= figures["one_sigma_coverage"] <= figures["two_sigma_coverage"] <= 1.0, where
+            normalised = figures["normalised_error"]
+            assert normalised["mean_square"] > 0, where
+            assert_reading_of_its_interval(
+                normalised["mean_square"], normalised["interval"], normalised["reading"], where
+            )
+        nis = f["nis"]
+        assert nis["ratio"] > 0 and nis["rows_used_mean"] > 0, (f["filter"], nis)
+        assert_reading_of_its_interval(nis["ratio"], nis["interval"], nis["reading"], f["filter"])
+
+
+def test_the_sigma_figures_are_the_comparisons(reproduced, paper_run):
+    out, _ = reproduced
+    comparison = json.loads((out / "s4" / "paper.json").read_text())
+    assert comparison["labels"] == FILTERS
+    for f, run in zip(paper_run["filters"], comparison["runs"], strict=True):
+        for signal in ["speed", "position"]:
+            (pair,) = [p for p in run["pairs"] if p["truth"] == signal]
+            for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
+                assert f[signal][field] == pair[field], (f["filter"], signal, field)
+        assert f["nis"] == run["nis"], f["filter"]

@@ -10,6 +10,10 @@ read from the `table.json` it writes beside its logs.
 - The second truth: JSBSim flies the missile and steps the FMU through fmpy, once per
   filter; its tables follow, every filter within the same bounds there too, and each run
   is labelled by the filter the FMU ran.
+- Beside its accuracy, each filter's σ of the coefficients is checked by the analyzer's
+  figures, which the table carries as the comparison has them, for both truths: the NEES
+  of the ten coefficients against its dof, each coefficient's 1σ and 2σ coverage and mean
+  (e/σ)² with its reading, and the run's NIS/rows with its reading.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ TRUTHS = ["6dof", "jsbsim"]
 # The paper's bound for its SVD-CKF, and the goal set for ours (relative error, %).
 PAPER_BOUND = 3.0
 GOAL = 1.0
+READINGS = {"consistent", "too wide", "too narrow"}
 
 
 @pytest.fixture(scope="module")
@@ -115,3 +120,51 @@ def test_each_jsbsim_run_is_labelled_by_the_filter_the_fmu_ran(reproduced, analy
         proc = subprocess.run([str(analyzer_bin), "report", str(log)], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
         assert proc.stdout.startswith(f"{name}: "), proc.stdout[:200]
+
+
+def assert_reading_of_its_interval(value: float, interval: list[float], reading: str, where) -> None:
+    """`reading` is what `value` says against the 95 % interval of an honest σ."""
+    assert reading in READINGS, where
+    low, high = interval
+    expected = "too wide" if value < low else "too narrow" if value > high else "consistent"
+    assert reading == expected, (where, value, interval, reading)
+
+
+@pytest.mark.parametrize("name", TRUTHS)
+def test_every_filter_has_the_nees_and_sigma_figures_of_the_coefficients_and_its_nis(reproduced, name):
+    _, table = reproduced
+    filters = truth(table, name)["filters"]
+    assert [f["filter"] for f in filters] == FILTERS
+    for f in filters:
+        where = (name, f["filter"])
+        nees = f["nees"]
+        assert nees["dof"] == len(NAMES) and sorted(nees["signals"]) == sorted(NAMES), where
+        assert nees["mean"] > 0 and 0.0 <= nees["in_band"] <= 1.0, (where, nees)
+        assert list(f["coefficients"]) == sorted(NAMES), where
+        for coefficient, figures in f["coefficients"].items():
+            one, two = figures["one_sigma_coverage"], figures["two_sigma_coverage"]
+            assert 0.0 <= one <= two <= 1.0, (where, coefficient)
+            normalised = figures["normalised_error"]
+            assert normalised["mean_square"] > 0, (where, coefficient)
+            assert_reading_of_its_interval(
+                normalised["mean_square"], normalised["interval"], normalised["reading"], (where, coefficient)
+            )
+        coefficients = f["coefficients"].values()
+        assert f["one_sigma_coverage_min"] == min(c["one_sigma_coverage"] for c in coefficients), where
+        assert f["two_sigma_coverage_min"] == min(c["two_sigma_coverage"] for c in coefficients), where
+        assert f["normalised_error_worst_coefficient"] in NAMES, where
+        nis = f["nis"]
+        assert nis["ratio"] > 0 and nis["rows_used_mean"] > 0, (where, nis)
+        assert_reading_of_its_interval(nis["ratio"], nis["interval"], nis["reading"], where)
+
+
+@pytest.mark.parametrize("name", TRUTHS)
+def test_the_sigma_figures_are_the_comparisons(reproduced, name):
+    out, table = reproduced
+    comparison = json.loads((out / "s5" / f"{name}.json").read_text())
+    for f, run in zip(truth(table, name)["filters"], comparison["runs"], strict=True):
+        assert f["nees"] == run["nees"] and f["nis"] == run["nis"], (name, f["filter"])
+        for pair in run["pairs"]:
+            figures = f["coefficients"][pair["truth"]]
+            for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
+                assert figures[field] == pair[field], (name, f["filter"], pair["truth"], field)

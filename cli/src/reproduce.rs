@@ -17,27 +17,43 @@
 //! dimensionless: correlations, fractions, counts). Filter kinds are named as printed
 //! (`CKF`, `SRCKF`, `SVD-CKF`, `UKF`, `EKF`).
 //!
+//! Beside every accuracy figure, each study prints and writes whether the σ behind it is
+//! honest: the analyzer's figures of the filter's log (`analyzer::consistency`; the
+//! comparison's `<case>.json` has the same numbers), under the analyzer's names. Per signal
+//! (the *σ figures*): `one_sigma_coverage` and `two_sigma_coverage` (0.6827 and 0.9545 for
+//! an honest σ) and `normalised_error` (`mean_square`, 1 for an honest σ, `samples`,
+//! `effective_samples`, `interval`, `reading`: `consistent`, `too wide` or `too narrow`);
+//! per run `nis` (`mean`, `samples`, `rows_used_mean`, `rows_used_from`,
+//! `rejections_known`, `ratio` Σ NIS / Σ rows used, `effective_dof`, `interval`,
+//! `reading`, `in_band`) and, in S5, `nees` (`signals`, `dof`, `samples`, `mean`, `band`,
+//! `in_band`). All of them are dimensionless, whatever `units` says of a namesake (S4's
+//! `mean`, a speed error's).
+//!
 //! - **S1** (`studies::s1::reproduce::Table`): `settings` (`duration`, `rate`,
 //!   `noise_fraction`, `seed`, `rmse_window`); `cases[]`, each with `case`, `paper`
 //!   (`correlation`, `running_rmse_peak`, `running_rmse_max_converged`), `failure`, and
 //!   `filters[]`: `filter`, `failure`, `feedthrough` (`correlation`, `rmse_converged`,
 //!   `running_rmse_peak`, `running_rmse_max_converged`, `convergence_time`,
-//!   `psd_agreement_band` `[low, high]`) and `after_step` (`correlation`,
-//!   `rmse_converged`).
+//!   `psd_agreement_band` `[low, high]`, and the σ figures of the load `F`) and
+//!   `after_step` (`correlation`, `rmse_converged`), and `nis`.
 //! - **S2** (`studies::s2::reproduce::Table`): `settings`; `cases[]`, each with `case`,
 //!   `paper` (wheelset 1: `correlation`, `running_rmse_mean`, `running_rmse_variance`),
 //!   `failure`, and `filters[]` (every kind, not only the SRCKF the first table prints):
 //!   `filter`, `failure`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference`,
 //!   `worst_wheel` (the second table's columns: `correlation_min`,
 //!   `rmse_over_dynamic_std_max`, `weld_peak_error_max_abs`, `two_sigma_coverage_min`,
-//!   `after_step_correlation_min`) and `wheels[]` (`wheelset` 1–4, `correlation`, `rmse`,
+//!   `after_step_correlation_min`, `one_sigma_coverage_min`, and the wheel whose mean
+//!   (e/σ)² is the farthest from 1 in ratio, `normalised_error_worst_wheelset` with its
+//!   `normalised_error_worst`), `wheels[]` (`wheelset` 1–4, `correlation`, `rmse`,
 //!   `running_rmse_mean`, `running_rmse_variance`, `dynamic_std`,
 //!   `rmse_over_dynamic_std`, `weld_peak_error`, `psd_agreement_band`,
-//!   `two_sigma_coverage`, `after_step_correlation`).
+//!   `two_sigma_coverage`, `after_step_correlation`, `one_sigma_coverage`,
+//!   `normalised_error`) and `nis`.
 //! - **S4** (`studies::s4::reproduce::Table`): `seed`; `paper`
 //!   (`mean_abs_error_reduction_from_raw`, `raw_average_speed_range`,
 //!   `paper_fused_ukf_speed_range`); `profiles[]`, each with `profile`, `duration`,
-//!   `telegrams`, `filters[]` (`filter`, `failure`, `fmu_vs_in_process_max_abs_difference`),
+//!   `telegrams`, `filters[]` (`filter`, `failure`, `fmu_vs_in_process_max_abs_difference`,
+//!   `speed` and `position`, each with its σ figures, and `nis`),
 //!   `compared_filter` and `comparison`: `raw_average`, `paper_fused`, `paper_fused_ukf`
 //!   and `ours`, each with `speed` (`mean_abs_error`, `max_abs_error`, `speed_range`,
 //!   `error_range`, `true_range`, …), `position_max_abs_error`, `in_etcs_band_fraction`
@@ -49,8 +65,10 @@
 //!   `tables[]` (`table` `Table 1` or `Table 2`, `time`, `coefficients[]`: `coefficient`,
 //!   `true_value`, `paper_svd_ckf`, `paper_svd_ckf_relative_error`, `relative_error` by
 //!   filter kind) and `filters[]` (`filter`, `back_within_3_percent`,
-//!   `back_within_1_percent`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference`; the
-//!   last two for the first truth only).
+//!   `back_within_1_percent`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference` (these
+//!   two for the first truth only), `nees` and `nis`, `one_sigma_coverage_min` and
+//!   `two_sigma_coverage_min` of the coefficients, `normalised_error_worst_coefficient` (the
+//!   farthest from 1 in ratio), and `coefficients`, each coefficient's σ figures by name).
 
 use std::path::PathBuf;
 

@@ -1,10 +1,13 @@
 //! S1 in `kalfmu reproduce`: every case through the packaged FMU with every filter,
 //! one log per run and one comparison per case, and the table beside the paper's figures,
-//! printed and written as `table.json` ([`Table`]).
+//! printed and written as `table.json` ([`Table`]). Beside each filter's accuracy, whether
+//! its σ of the load is honest: the analyzer's 1σ and 2σ coverage and mean (e/σ)² of `F`,
+//! and its NIS against the measurement rows used (docs/analyzer.md, "Is the σ honest?").
 
 use std::fmt::Write as _;
 use std::path::Path;
 
+use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{analyse, Options, PairReport, Report};
 use anyhow::Context;
 use estimator::FilterKind;
@@ -84,6 +87,9 @@ pub struct FilterFigures {
     pub feedthrough: Option<FeedthroughFigures>,
     /// The figures of the reading after `fmi2DoStep`, against the truth at t + dt.
     pub after_step: Option<AfterStepFigures>,
+    /// The NIS of the run's updates against the measurement rows they used, the analyzer's
+    /// (`null` if the run failed or its log has no `nis`).
+    pub nis: Option<Nis>,
 }
 
 /// The feedthrough reading's figures of the load.
@@ -101,6 +107,13 @@ pub struct FeedthroughFigures {
     pub convergence_time: f64,
     /// The widest band where the spectra agree within 3 dB, `[low, high]` (Hz).
     pub psd_agreement_band: Option<(f64, f64)>,
+    /// Fraction of samples whose error is within the FMU's ±σ of the load (0.6827 for an
+    /// honest σ and a Gaussian error; `null` without σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// Fraction of samples whose error is within ±2σ (0.9545 for an honest σ).
+    pub two_sigma_coverage: Option<f64>,
+    /// The mean of `(e/σ)²` (1 for an honest σ) with its reading, the analyzer's.
+    pub normalised_error: Option<NormalisedError>,
 }
 
 /// The after-step reading's figures of the load.
@@ -160,7 +173,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
     let mut table = String::new();
     let _ = writeln!(
         table,
-        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}",
+        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}  {:>6} {:>6} {:>17} {:>17}",
         "case",
         "filter",
         "corr",
@@ -173,7 +186,11 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         "t_conv",
         "PSD ±3dB Hz",
         "after step",
-        "RMSE conv"
+        "RMSE conv",
+        "1σ F",
+        "2σ F",
+        "(e/σ)² F",
+        "NIS/rows"
     );
     let mut failures = 0;
     let mut recordings = Vec::new();
@@ -209,7 +226,13 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                 let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
                     return Err(format!("the report of {} has no load pair", report.file));
                 };
-                Ok((pair.metrics, pair.psd_agreement_band, after.metrics))
+                let sigma = SigmaOfLoad {
+                    one_sigma_coverage: pair.one_sigma_coverage,
+                    two_sigma_coverage: pair.two_sigma_coverage,
+                    normalised_error: pair.normalised_error,
+                    nis: report.nis.clone(),
+                };
+                Ok((pair.metrics, pair.psd_agreement_band, after.metrics, sigma))
             });
             Ok(loads.collect::<Vec<_>>())
         });
@@ -235,27 +258,11 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         };
         for (kind, result) in rows {
             match result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg)) {
-                Ok((c, band, a)) => {
-                    figures.filters.push(FilterFigures {
-                        filter: kind.name(),
-                        failure: None,
-                        feedthrough: Some(FeedthroughFigures {
-                            correlation: c.correlation,
-                            rmse_converged: c.rmse_converged,
-                            running_rmse_peak: c.running_rmse_peak,
-                            running_rmse_max_converged: c.running_rmse_max_converged,
-                            convergence_time: c.convergence_time,
-                            psd_agreement_band: band,
-                        }),
-                        after_step: Some(AfterStepFigures {
-                            correlation: a.correlation,
-                            rmse_converged: a.rmse_converged,
-                        }),
-                    });
-                    let band = band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}"));
+                Ok((c, band, a, sigma)) => {
                     let _ = writeln!(
                         table,
-                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}",
+                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} \
+                         {:>10.4}  {:>6} {:>6} {:>17} {:>17}",
                         case.to_string(),
                         kind.name(),
                         c.correlation,
@@ -266,10 +273,34 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                         c.running_rmse_max_converged,
                         paper(published.running_rmse_max_converged),
                         c.convergence_time,
-                        band,
+                        band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}")),
                         a.correlation,
-                        a.rmse_converged
+                        a.rmse_converged,
+                        coverage(sigma.one_sigma_coverage),
+                        coverage(sigma.two_sigma_coverage),
+                        read(sigma.normalised_error.map(|n| (n.mean_square, n.reading))),
+                        read(sigma.nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
                     );
+                    figures.filters.push(FilterFigures {
+                        filter: kind.name(),
+                        failure: None,
+                        feedthrough: Some(FeedthroughFigures {
+                            correlation: c.correlation,
+                            rmse_converged: c.rmse_converged,
+                            running_rmse_peak: c.running_rmse_peak,
+                            running_rmse_max_converged: c.running_rmse_max_converged,
+                            convergence_time: c.convergence_time,
+                            psd_agreement_band: band,
+                            one_sigma_coverage: sigma.one_sigma_coverage,
+                            two_sigma_coverage: sigma.two_sigma_coverage,
+                            normalised_error: sigma.normalised_error,
+                        }),
+                        after_step: Some(AfterStepFigures {
+                            correlation: a.correlation,
+                            rmse_converged: a.rmse_converged,
+                        }),
+                        nis: sigma.nis,
+                    });
                 }
                 Err(e) => {
                     failures += 1;
@@ -279,6 +310,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                         failure: Some(format!("{e:#}")),
                         feedthrough: None,
                         after_step: None,
+                        nis: None,
                     });
                 }
             }
@@ -317,4 +349,25 @@ const PAPER_SOURCE: &str = "SRCKF figures of Gong et al. 2024";
 /// The report's pair of the load `F`.
 fn load_pair<'a>(report: &'a Report<'_>) -> Option<&'a PairReport<'a>> {
     report.pairs.iter().find(|p| p.truth == "F")
+}
+
+/// What the analyzer's report of a run says of its σ: of the load `F` (feedthrough reading)
+/// and of its innovations.
+#[derive(Debug, Clone)]
+struct SigmaOfLoad {
+    one_sigma_coverage: Option<f64>,
+    two_sigma_coverage: Option<f64>,
+    normalised_error: Option<NormalisedError>,
+    nis: Option<Nis>,
+}
+
+/// A coverage as the table prints it; `—` without σ.
+fn coverage(fraction: Option<f64>) -> String {
+    fraction.map_or("—".into(), |f| format!("{f:.3}"))
+}
+
+/// A mean normalised square with its reading, as the table prints it (`1.056 consistent`);
+/// `—` where the analyzer has none.
+fn read(figure: Option<(f64, Reading)>) -> String {
+    figure.map_or("—".into(), |(value, reading)| format!("{value:.3} {}", reading.text()))
 }

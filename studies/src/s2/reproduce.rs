@@ -15,6 +15,11 @@
 //! - **PSD band**: the widest band where the spectra (Welch, 1 s segments) agree within
 //!   3 dB;
 //! - **2σ**: the fraction of samples whose error is inside the FMU's ±2σ;
+//! - **1σ**, **(e/σ)²** and **NIS/rows**: whether the FMU's σ is honest, the analyzer's
+//!   figures (docs/analyzer.md, "Is the σ honest?"): the fraction inside ±σ (0.6827 for an
+//!   honest σ), the mean σ-normalised squared error (1) with its reading, and the run's
+//!   Σ NIS / Σ measurement rows used (1) with its reading; every filter's table shows the
+//!   wheel whose (e/σ)² is the farthest from 1 (in ratio);
 //! - **vs library**: the largest difference between the FMU's forces and the same filter
 //!   run in-process on the same measurements (`study::run_filter`): the FMU in a
 //!   co-simulation must give what our own runs give.
@@ -25,6 +30,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{analyse, Options, PairReport};
 use anyhow::Context;
 use estimator::FilterKind;
@@ -68,6 +74,8 @@ struct WheelFigures {
     peak_error: f64,
     band: Option<(f64, f64)>,
     two_sigma: f64,
+    one_sigma: f64,
+    normalised_error: Option<NormalisedError>,
 }
 
 impl WheelFigures {
@@ -92,6 +100,8 @@ impl WheelFigures {
             peak_error: (estimated_peak - peak.1) / (peak.1 - mean),
             band: pair.psd_agreement_band,
             two_sigma: pair.two_sigma_coverage.unwrap_or(f64::NAN),
+            one_sigma: pair.one_sigma_coverage.unwrap_or(f64::NAN),
+            normalised_error: pair.normalised_error,
         }
     }
 }
@@ -171,6 +181,9 @@ pub struct FilterFigures {
     pub worst_wheel: Option<WorstWheel>,
     /// Wheelsets 1 to 4.
     pub wheels: Vec<WheelTable>,
+    /// The NIS of the run's updates against the measurement rows they used, the analyzer's
+    /// (`null` if the run failed or its log has no `nis`).
+    pub nis: Option<Nis>,
 }
 
 /// The worst figure of the four wheels, each on its own wheel.
@@ -184,6 +197,12 @@ pub struct WorstWheel {
     pub weld_peak_error_max_abs: Option<f64>,
     /// The lowest share of errors inside the FMU's ±2σ.
     pub two_sigma_coverage_min: Option<f64>,
+    /// The lowest share of errors inside the FMU's ±σ.
+    pub one_sigma_coverage_min: Option<f64>,
+    /// The wheelset whose mean `(e/σ)²` is the farthest from 1 in ratio (`null` without σ).
+    pub normalised_error_worst_wheelset: Option<usize>,
+    /// Its mean `(e/σ)²` with its reading.
+    pub normalised_error_worst: Option<NormalisedError>,
     /// The lowest correlation of the forces read right after the step.
     pub after_step_correlation_min: f64,
 }
@@ -211,6 +230,10 @@ pub struct WheelTable {
     pub psd_agreement_band: Option<(f64, f64)>,
     /// Share of the errors inside the FMU's ±2σ (`null` without σ).
     pub two_sigma_coverage: Option<f64>,
+    /// Share of the errors inside the FMU's ±σ (`null` without σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// The mean of `(e/σ)²` (1 for an honest σ) with its reading (`null` without σ).
+    pub normalised_error: Option<NormalisedError>,
     /// Correlation of the force read right after the step with the truth at t + dt.
     pub after_step_correlation: f64,
 }
@@ -230,6 +253,8 @@ impl WheelTable {
             weld_peak_error: weld_percent(case, w.peak_error),
             psd_agreement_band: w.band,
             two_sigma_coverage: Some(w.two_sigma).filter(|c| !c.is_nan()),
+            one_sigma_coverage: Some(w.one_sigma).filter(|c| !c.is_nan()),
+            normalised_error: w.normalised_error,
             after_step_correlation: a.correlation,
         }
     }
@@ -302,7 +327,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
     let mut srckf = String::new();
     let _ = writeln!(
         srckf,
-        "{:<12} {:>5} {:>8} {:>6} {:>8} {:>6} {:>8} {:>6} {:>8} {:>8} {:>12} {:>6} {:>10}",
+        "{:<12} {:>5} {:>8} {:>6} {:>8} {:>6} {:>8} {:>6} {:>8} {:>8} {:>12} {:>6} {:>10} {:>6} {:>17}",
         "case",
         "wheel",
         "corr",
@@ -315,13 +340,26 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         "peak err",
         "PSD ±3dB Hz",
         "2σ",
-        "after step"
+        "after step",
+        "1σ",
+        "(e/σ)²"
     );
     let mut filters = String::new();
     let _ = writeln!(
         filters,
-        "{:<12} {:<8} {:>9} {:>11} {:>9} {:>10} {:>9} {:>10} {:>12}",
-        "case", "filter", "corr min", "RMSE/σd max", "peak err", "2σ min", "rejected", "after step", "vs library N"
+        "{:<12} {:<8} {:>9} {:>11} {:>9} {:>10} {:>9} {:>10} {:>12} {:>7} {:>20} {:>17}",
+        "case",
+        "filter",
+        "corr min",
+        "RMSE/σd max",
+        "peak err",
+        "2σ min",
+        "rejected",
+        "after step",
+        "vs library N",
+        "1σ min",
+        "(e/σ)² worst wheel",
+        "NIS/rows"
     );
     let mut failures = 0;
     let mut recordings = Vec::new();
@@ -371,6 +409,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                         fmu_vs_in_process_max_abs_difference: None,
                         worst_wheel: None,
                         wheels: Vec::new(),
+                        nis: None,
                     });
                 }
             }
@@ -383,7 +422,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                 let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
                     pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
                 };
-                per_run.push((wheels(&report.pairs), wheels(&after.pairs)));
+                per_run.push((wheels(&report.pairs), wheels(&after.pairs), report.nis.clone()));
             }
             Ok(per_run)
         });
@@ -397,13 +436,14 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                 continue;
             }
         };
-        for ((kind, counts, difference), (wheels, after)) in ran.iter().zip(&figures) {
+        for ((kind, counts, difference), (wheels, after, nis)) in ran.iter().zip(&figures) {
             if *kind == FilterKind::SrCkf {
                 for (j, (w, a)) in wheels.iter().zip(after).enumerate() {
                     let paper = |v: f64, digits: usize| if j == 0 { format!("{v:.digits$}") } else { "".into() };
                     let _ = writeln!(
                         srckf,
-                        "{:<12} {:>5} {:>8.4} {:>6} {:>8.3} {:>6} {:>8.4} {:>6} {:>8.3} {:>8} {:>12} {:>6.3} {:>10.4}",
+                        "{:<12} {:>5} {:>8.4} {:>6} {:>8.3} {:>6} {:>8.4} {:>6} {:>8.3} {:>8} {:>12} {:>6.3} {:>10.4} \
+                         {:>6.3} {:>17}",
                         case.name(),
                         j + 1,
                         w.correlation,
@@ -416,13 +456,16 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                         peak(case, w.peak_error),
                         w.band.map_or("—".into(), |(lo, hi)| format!("{lo:.0}–{hi:.0}")),
                         w.two_sigma,
-                        a.correlation
+                        a.correlation,
+                        w.one_sigma,
+                        read(w.normalised_error.map(|n| (n.mean_square, n.reading)))
                     );
                 }
             }
             let worst = |f: fn(&WheelFigures) -> f64, pick: fn(f64, f64) -> f64, start: f64| {
                 wheels.iter().map(f).fold(start, pick)
             };
+            let worst_normalised_error = farthest_from_one(wheels);
             let worst_wheel = WorstWheel {
                 correlation_min: worst(|w| w.correlation, f64::min, f64::INFINITY),
                 rmse_over_dynamic_std_max: worst(|w| w.rmse / w.dynamic_std, f64::max, 0.0),
@@ -431,11 +474,14 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                     worst(|w| w.peak_error, |a, b| if b.abs() > a.abs() { b } else { a }, 0.0),
                 ),
                 two_sigma_coverage_min: Some(worst(|w| w.two_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
+                one_sigma_coverage_min: Some(worst(|w| w.one_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
+                normalised_error_worst_wheelset: worst_normalised_error.map(|(j, _)| j + 1),
+                normalised_error_worst: worst_normalised_error.map(|(_, n)| n),
                 after_step_correlation_min: after.iter().map(|a| a.correlation).fold(f64::INFINITY, f64::min),
             };
             let _ = writeln!(
                 filters,
-                "{:<12} {:<8} {:>9.4} {:>11.3} {:>9} {:>10.3} {:>9} {:>10.4} {:>12.1e}",
+                "{:<12} {:<8} {:>9.4} {:>11.3} {:>9} {:>10.3} {:>9} {:>10.4} {:>12.1e} {:>7} {:>20} {:>17}",
                 case.name(),
                 kind.name(),
                 worst_wheel.correlation_min,
@@ -444,7 +490,14 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                 worst(|w| w.two_sigma, f64::min, f64::INFINITY),
                 counts.rejected,
                 worst_wheel.after_step_correlation_min,
-                difference
+                difference,
+                worst_wheel.one_sigma_coverage_min.map_or("—".into(), |c| format!("{c:.3}")),
+                worst_normalised_error.map_or("—".into(), |(j, n)| format!(
+                    "{}: {}",
+                    j + 1,
+                    read(Some((n.mean_square, n.reading)))
+                )),
+                read(nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
             );
             case_figures.filters.push(FilterFigures {
                 filter: kind.name(),
@@ -458,6 +511,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
                     .enumerate()
                     .map(|(j, (w, a))| WheelTable::new(case, j + 1, w, a))
                     .collect(),
+                nis: nis.clone(),
             });
         }
         let order = |f: &FilterFigures| FilterKind::ALL.iter().position(|k| k.name() == f.filter);
@@ -497,6 +551,23 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
     Ok(failures)
 }
 
+/// The wheel (index from 0) whose mean `(e/σ)²` is the farthest from 1 in ratio (a σ twice
+/// too wide as far as one twice too narrow), with it; `None` if no wheel has a σ.
+fn farthest_from_one(wheels: &[WheelFigures]) -> Option<(usize, NormalisedError)> {
+    let distance = |n: &NormalisedError| n.mean_square.ln().abs();
+    wheels
+        .iter()
+        .enumerate()
+        .filter_map(|(j, w)| w.normalised_error.map(|n| (j, n)))
+        .max_by(|a, b| distance(&a.1).total_cmp(&distance(&b.1)))
+}
+
+/// A mean normalised square with its reading, as the tables print it (`0.867 consistent`);
+/// `—` where the analyzer has none.
+fn read(figure: Option<(f64, Reading)>) -> String {
+    figure.map_or("—".into(), |(value, reading)| format!("{value:.3} {}", reading.text()))
+}
+
 /// The weld's peak error as printed, a percentage; the other cases have none.
 fn peak(case: Case, error: f64) -> String {
     weld_percent(case, error).map_or("—".into(), |percent| format!("{percent:+.1} %"))
@@ -522,6 +593,8 @@ mod tests {
             peak_error: -0.5,
             band: Some((1.0, 27.0)),
             two_sigma: f64::NAN,
+            one_sigma: f64::NAN,
+            normalised_error: None,
         }
     }
 
@@ -540,6 +613,8 @@ mod tests {
             "weld_peak_error": -50.0,
             "psd_agreement_band": [1.0, 27.0],
             "two_sigma_coverage": null,
+            "one_sigma_coverage": null,
+            "normalised_error": null,
             "after_step_correlation": 0.98,
         });
         assert_eq!(json, expected);
@@ -548,6 +623,25 @@ mod tests {
         for (name, unit) in [("rmse", "kN"), ("running_rmse_variance", "kN²"), ("weld_peak_error", "%")] {
             assert_eq!(units[name], unit, "{name}");
         }
+    }
+
+    #[test]
+    fn the_worst_normalised_error_is_the_farthest_from_one_in_ratio() {
+        let with_mean = |mean_square: f64| WheelFigures {
+            normalised_error: Some(NormalisedError {
+                mean_square,
+                samples: 100,
+                effective_samples: 100.0,
+                interval: [0.7, 1.3],
+                reading: Reading::Consistent,
+            }),
+            ..wheel()
+        };
+        // 0.3 is farther from 1 in ratio (1/0.3 ≈ 3.3) than 2.5, though nearer in difference.
+        let wheels = [with_mean(1.1), with_mean(2.5), with_mean(0.3), wheel()];
+        let (index, worst) = farthest_from_one(&wheels).unwrap();
+        assert_eq!((index, worst.mean_square), (2, 0.3));
+        assert_eq!(farthest_from_one(&[wheel(), wheel()]), None);
     }
 
     #[test]

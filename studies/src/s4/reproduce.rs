@@ -4,12 +4,16 @@
 //! with ours read from the FMU's outputs (SRCKF, the FMU's default), beside the raw
 //! average and the paper's pipeline (in-process: the paper's method, not our FMU); one
 //! log per run and one comparison recording per profile (`out/s4/`), and the figures as
-//! `table.json` there ([`Table`]).
+//! `table.json` there ([`Table`]). Per filter, whether the FMU's σ of speed and position is
+//! honest, from the analyzer's report of its log (docs/analyzer.md, "Is the σ honest?"):
+//! their 1σ and 2σ coverage and mean (e/σ)² with its reading, and the NIS against the
+//! measurement rows used.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use analyzer::report::Options;
+use analyzer::consistency::{Nis, NormalisedError, Reading};
+use analyzer::report::{Options, PairReport, Report};
 use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::read_log;
@@ -83,9 +87,56 @@ pub struct FilterCheck {
     /// The largest difference of position (m), speed (m/s), offsets (m) and weights (1)
     /// between the FMU's outputs and the same filter's in-process.
     pub fmu_vs_in_process_max_abs_difference: Option<f64>,
+    /// What the FMU's σ of the speed says against its errors (`null` if the run or the
+    /// comparison failed).
+    pub speed: Option<SignalSigma>,
+    /// The same of the position.
+    pub position: Option<SignalSigma>,
+    /// The NIS of the run's updates against the measurement rows they used (`null` if the
+    /// run or the comparison failed, or the log has no `nis`).
+    pub nis: Option<Nis>,
 }
 
-/// The units of S4's [`Table`].
+/// The analyzer's figures of one estimated signal's σ against its errors.
+#[derive(Serialize)]
+pub struct SignalSigma {
+    /// Fraction of samples whose error is within ±σ (0.6827 for an honest σ and a Gaussian
+    /// error; `null` without σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// Fraction of samples whose error is within ±2σ (0.9545).
+    pub two_sigma_coverage: Option<f64>,
+    /// The mean of `(e/σ)²` (1 for an honest σ) with its reading.
+    pub normalised_error: Option<NormalisedError>,
+}
+
+impl SignalSigma {
+    /// The figures of the pair of `signal` in `report`; `None` if it has no such pair.
+    fn of(report: &Report<'_>, signal: &str) -> Option<Self> {
+        let pair: &PairReport<'_> = report.pairs.iter().find(|p| p.truth == signal)?;
+        Some(Self {
+            one_sigma_coverage: pair.one_sigma_coverage,
+            two_sigma_coverage: pair.two_sigma_coverage,
+            normalised_error: pair.normalised_error,
+        })
+    }
+
+    /// `1σ/2σ (e/σ)² reading`, as the σ lines print it (`0.819/0.991 0.5658 too wide`).
+    fn text(this: Option<&Self>) -> String {
+        let Some(s) = this else { return "—".into() };
+        let coverage = |c: Option<f64>| c.map_or("—".into(), |c| format!("{c:.3}"));
+        let normalised = s.normalised_error.map_or("—".into(), |n| read(n.mean_square, n.reading));
+        format!("{}/{} {normalised}", coverage(s.one_sigma_coverage), coverage(s.two_sigma_coverage))
+    }
+}
+
+/// A mean normalised square with its reading, to four significant digits.
+fn read(value: f64, reading: Reading) -> String {
+    let digits = if value.is_finite() && value != 0.0 { (3 - value.abs().log10().floor() as i32).max(0) } else { 0 };
+    format!("{value:.digits$} {}", reading.text(), digits = digits as usize)
+}
+
+/// The units of S4's [`Table`]. `mean` is the speed error's: the `nis` objects' `mean` is
+/// dimensionless, like every σ figure.
 const UNITS: [(&str, &str); 14] = [
     ("duration", "s"),
     ("raw_average_speed_range", "m/s"),
@@ -150,6 +201,8 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
         let mut line = format!("{:<22}", "vs library (largest |Δ|)");
         let mut table = None;
         let mut filters = Vec::new();
+        // The entry of `filters` of each log, in the order of `logs`.
+        let mut logged = Vec::new();
         for kind in FilterKind::ALL {
             let log = log_path(&stem, kind);
             let checked = fmu_run::run(&fmu, kind, &recording, &tuning, case, &log).and_then(|_| {
@@ -177,10 +230,14 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
             match checked {
                 Ok(difference) => {
                     line.push_str(&format!(" {}: {difference:.1e}", kind.name()));
+                    logged.push(filters.len());
                     filters.push(FilterCheck {
                         filter: kind.name(),
                         failure: None,
                         fmu_vs_in_process_max_abs_difference: Some(difference),
+                        speed: None,
+                        position: None,
+                        nis: None,
                     });
                 }
                 Err(e) => {
@@ -190,10 +247,35 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
                         filter: kind.name(),
                         failure: Some(format!("{e:#}")),
                         fmu_vs_in_process_max_abs_difference: None,
+                        speed: None,
+                        position: None,
+                        nis: None,
                     });
                 }
             }
         }
+        let compared = compare_case(&logs, &Options::default(), &stem);
+        if let Ok((comparison, _)) = &compared {
+            for (report, &i) in comparison.runs.iter().zip(&logged) {
+                filters[i].speed = SignalSigma::of(report, "speed");
+                filters[i].position = SignalSigma::of(report, "position");
+                filters[i].nis = report.nis.clone();
+            }
+        }
+        let sigma_lines: Vec<String> = filters
+            .iter()
+            .filter(|f| f.failure.is_none())
+            .map(|f| {
+                let nis = f.nis.as_ref().and_then(|n| n.ratio.zip(n.reading));
+                format!(
+                    "  {:<8} speed {:<30} position {:<30} NIS/rows {}",
+                    f.filter,
+                    SignalSigma::text(f.speed.as_ref()),
+                    SignalSigma::text(f.position.as_ref()),
+                    nis.map_or("—".into(), |(ratio, reading)| read(ratio, reading))
+                )
+            })
+            .collect();
         profiles.push(ProfileFigures {
             profile: case,
             duration: profile.duration(),
@@ -212,7 +294,16 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
         }
         print!("{text}");
         println!("{line}");
-        match compare_case(&logs, &Options::default(), &stem) {
+        if compared.is_ok() {
+            println!(
+                "σ of each filter (analyzer): 1σ/2σ coverage (0.683/0.955 if honest) and (e/σ)² mean (1) with its \
+                 reading; Σ NIS / Σ rows used (1)"
+            );
+            for sigma_line in &sigma_lines {
+                println!("{sigma_line}");
+            }
+        }
+        match compared {
             Ok((_, recording)) => println!("comparison recording, every filter in one: {}", recording.display()),
             Err(e) => {
                 failures += 1;

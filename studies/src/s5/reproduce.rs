@@ -6,13 +6,18 @@
 //! filter. For each: the paper's Tables 1 and 2 with each filter's relative error beside
 //! the paper's SVD-CKF, and the time to come back after the change; one log per run and
 //! one comparison recording per truth (`out/s5/`), and the tables' figures as `table.json`
-//! there ([`Table`]).
+//! there ([`Table`]). Per filter, whether its σ of the coefficients is honest, from the
+//! analyzer's report of its log (docs/analyzer.md, "Is the σ honest?"): their NEES, each
+//! coefficient's 1σ and 2σ coverage and mean (e/σ)² with its reading, and the NIS against
+//! the measurement rows used.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use analyzer::report::Options;
+use analyzer::compare::Comparison;
+use analyzer::consistency::{Nees, Nis, NormalisedError, Reading};
+use analyzer::report::{Options, Report};
 use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::read_log;
@@ -38,6 +43,58 @@ struct FilterRun {
     truth: Vec<[f64; 10]>,
     /// What the first truth's runs check besides (the JSBSim driver has no in-process twin).
     checked: Option<Checked>,
+    /// What the analyzer's report of its log says of its σ (`None` until the runs are
+    /// compared, or if they could not be).
+    sigma: Option<RunSigma>,
+}
+
+/// The analyzer's figures of a run's σ: of the coefficients and of its innovations.
+#[derive(Debug, Clone)]
+struct RunSigma {
+    nees: Option<Nees>,
+    nis: Option<Nis>,
+    coefficients: BTreeMap<&'static str, SignalSigma>,
+}
+
+impl RunSigma {
+    /// The figures of `report`, the analyzer's report of a run's log.
+    fn of(report: &Report<'_>) -> Self {
+        let coefficients = NAMES
+            .iter()
+            .filter_map(|&name| {
+                let pair = report.pairs.iter().find(|p| p.truth == name)?;
+                let sigma = SignalSigma {
+                    one_sigma_coverage: pair.one_sigma_coverage,
+                    two_sigma_coverage: pair.two_sigma_coverage,
+                    normalised_error: pair.normalised_error,
+                };
+                Some((name, sigma))
+            })
+            .collect();
+        Self { nees: report.nees.clone(), nis: report.nis.clone(), coefficients }
+    }
+
+    /// The lowest coverage of the coefficients, by `coverage`; `None` if none has a σ.
+    fn coverage_min(&self, coverage: fn(&SignalSigma) -> Option<f64>) -> Option<f64> {
+        self.coefficients.values().filter_map(coverage).reduce(f64::min)
+    }
+
+    /// The coefficient whose mean `(e/σ)²` is the farthest from 1 in ratio, with it.
+    fn worst(&self) -> Option<(&'static str, NormalisedError)> {
+        let distance = |n: &NormalisedError| n.mean_square.ln().abs();
+        self.coefficients
+            .iter()
+            .filter_map(|(&name, s)| s.normalised_error.map(|n| (name, n)))
+            .max_by(|a, b| distance(&a.1).total_cmp(&distance(&b.1)))
+    }
+}
+
+/// Each run's [`RunSigma`] from the comparison of their logs, `comparison.runs[i]` being of
+/// `runs[i]` (a run's log is kept exactly when the run is).
+fn attach_sigma(runs: &mut [FilterRun], comparison: &Comparison<'_>) {
+    for (run, report) in runs.iter_mut().zip(&comparison.runs) {
+        run.sigma = Some(RunSigma::of(report));
+    }
 }
 
 /// A run checked against the same filter in-process.
@@ -137,6 +194,31 @@ pub struct FilterFigures {
     /// The largest difference of a coefficient from the same filter's in-process (the
     /// first truth's runs only).
     pub fmu_vs_in_process_max_abs_difference: Option<f64>,
+    /// The NEES of the ten coefficients, the analyzer's (`mean` against `dof`, and the
+    /// fraction `in_band`); `null` if the runs could not be compared.
+    pub nees: Option<Nees>,
+    /// The NIS of the run's updates against the measurement rows they used, the analyzer's.
+    pub nis: Option<Nis>,
+    /// The lowest 1σ coverage of the coefficients (0.6827 each for an honest σ).
+    pub one_sigma_coverage_min: Option<f64>,
+    /// The lowest 2σ coverage of the coefficients (0.9545).
+    pub two_sigma_coverage_min: Option<f64>,
+    /// The coefficient whose mean `(e/σ)²` is the farthest from 1 in ratio.
+    pub normalised_error_worst_coefficient: Option<&'static str>,
+    /// Each coefficient's σ against its errors, by name.
+    pub coefficients: BTreeMap<&'static str, SignalSigma>,
+}
+
+/// The analyzer's figures of one coefficient's σ against its errors.
+#[derive(Debug, Clone, Serialize)]
+pub struct SignalSigma {
+    /// Fraction of samples whose error is within ±σ (0.6827 for an honest σ and a Gaussian
+    /// error; `null` without σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// Fraction of samples whose error is within ±2σ (0.9545).
+    pub two_sigma_coverage: Option<f64>,
+    /// The mean of `(e/σ)²` (1 for an honest σ) with its reading.
+    pub normalised_error: Option<NormalisedError>,
 }
 
 /// The units of S5's [`Table`].
@@ -188,7 +270,7 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
             let difference = largest_difference(&coefficients, &library.coefficients)?;
             logs.push(run);
             let checked = Some(Checked { difference, rejected: counts.rejected });
-            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked })
+            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None })
         });
         match through_fmu {
             Ok(r) => runs.push(r),
@@ -200,7 +282,10 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
         }
     }
     let recording = match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
-        Ok((_, recording)) => Some(recording),
+        Ok((comparison, recording)) => {
+            attach_sigma(&mut runs, &comparison);
+            Some(recording)
+        }
         Err(e) => {
             failures += 1;
             println!("FAILED to compare the filters: {e}");
@@ -275,7 +360,7 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
                 let (mut coefficients, mut true_values) = (rows_of(estimate, NAMES)?, rows_of(truth, NAMES)?);
                 coefficients.truncate(samples);
                 true_values.truncate(samples);
-                let filter_run = FilterRun { kind, coefficients, truth: true_values, checked: None };
+                let filter_run = FilterRun { kind, coefficients, truth: true_values, checked: None, sigma: None };
                 logs.push(run);
                 Ok(filter_run)
             });
@@ -291,9 +376,15 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
     if runs.is_empty() {
         return (failures, figures);
     }
+    // Compared before the tables are printed, which show the σ figures of the comparison.
+    let compared =
+        compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem).map(|(comparison, recording)| {
+            attach_sigma(&mut runs, &comparison);
+            recording
+        });
     (figures.tables, figures.filters) = print_tables(&runs, &time, before);
-    match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
-        Ok((_, recording)) => println!("comparison recording, every filter in one: {}", recording.display()),
+    match compared {
+        Ok(recording) => println!("comparison recording, every filter in one: {}", recording.display()),
         Err(e) => {
             failures += 1;
             println!("FAILED to compare the JSBSim runs: {e}");
@@ -367,12 +458,19 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
             let _ = write!(rejected, " {:>12}", checked.rejected);
             let _ = write!(difference, " {:>12.1e}", checked.difference);
         }
+        let sigma = r.sigma.as_ref();
         filters.push(FilterFigures {
             filter: r.kind.name(),
             back_within_3_percent: within_3,
             back_within_1_percent: within_1,
             rejected_rows: r.checked.as_ref().map(|c| c.rejected),
             fmu_vs_in_process_max_abs_difference: r.checked.as_ref().map(|c| c.difference),
+            nees: sigma.and_then(|s| s.nees.clone()),
+            nis: sigma.and_then(|s| s.nis.clone()),
+            one_sigma_coverage_min: sigma.and_then(|s| s.coverage_min(|c| c.one_sigma_coverage)),
+            two_sigma_coverage_min: sigma.and_then(|s| s.coverage_min(|c| c.two_sigma_coverage)),
+            normalised_error_worst_coefficient: sigma.and_then(|s| s.worst()).map(|(name, _)| name),
+            coefficients: sigma.map(|s| s.coefficients.clone()).unwrap_or_default(),
         });
     }
     let names: String = runs.iter().map(|r| format!(" {:>12}", r.kind.name())).collect();
@@ -381,6 +479,49 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
     if runs.iter().all(|r| r.checked.is_some()) {
         println!("{rejected}\n{difference}");
     }
+    if runs.iter().any(|r| r.sigma.is_some()) {
+        println!(
+            "σ of the coefficients (analyzer, from {SETTLE} s on, the change at 10 s included): NEES mean/dof and the \
+             share in its 95 % band; the lowest 1σ/2σ coverage (0.683/0.955 if honest); the worst (e/σ)² mean (1) \
+             with its reading, and how many read too narrow; Σ NIS / Σ rows used (1)"
+        );
+        for r in runs {
+            if let Some(sigma) = &r.sigma {
+                println!("  {:<8} {}", r.kind.name(), sigma_line(sigma));
+            }
+        }
+    }
     println!("paper: {PAPER_CLAIM}");
     (tables, filters)
+}
+
+/// A run's σ figures as the σ lines print them.
+fn sigma_line(sigma: &RunSigma) -> String {
+    let or_dash = |v: Option<f64>, text: &dyn Fn(f64) -> String| v.map_or("—".to_string(), text);
+    let nees = sigma
+        .nees
+        .as_ref()
+        .map_or("—".into(), |n| format!("{}/{} in 95 % {:.3}", significant(n.mean), n.dof, n.in_band));
+    let coverage = format!(
+        "{}/{}",
+        or_dash(sigma.coverage_min(|c| c.one_sigma_coverage), &|c| format!("{c:.3}")),
+        or_dash(sigma.coverage_min(|c| c.two_sigma_coverage), &|c| format!("{c:.3}"))
+    );
+    let narrow = sigma
+        .coefficients
+        .values()
+        .filter(|c| c.normalised_error.is_some_and(|n| n.reading == Reading::TooNarrow))
+        .count();
+    let worst = sigma.worst().map_or("—".into(), |(name, n)| {
+        format!("{name} {} {} ({narrow} of {} too narrow)", significant(n.mean_square), n.reading.text(), NAMES.len())
+    });
+    let nis = sigma.nis.as_ref().and_then(|n| n.ratio.zip(n.reading));
+    let nis = nis.map_or("—".into(), |(ratio, reading)| format!("{} {}", significant(ratio), reading.text()));
+    format!("NEES {nees}  1σ/2σ min {coverage}  (e/σ)² worst {worst}  NIS/rows {nis}")
+}
+
+/// `value` to four significant digits, in plain notation.
+fn significant(value: f64) -> String {
+    let digits = if value.is_finite() && value != 0.0 { (3 - value.abs().log10().floor() as i32).max(0) } else { 0 };
+    format!("{value:.digits$}", digits = digits as usize)
 }
