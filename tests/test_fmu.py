@@ -14,7 +14,9 @@ What is specified here for every FMU:
   input, tunable parameters change between steps and fixed ones do not, a
   measurement enters once however often the inputs are set and read, a step
   of several samples predicts through those inside it, and a step ending
-  between samples warns once and reads the prediction to its end.
+  between samples warns once and reads the prediction to its end;
+- every measurement input has its `<input>_status` output (Enumeration
+  InputStatus): missing before any update, used on clean data.
 
 For S1 (`kalfmu_s1_load.fmu`, FMI 2.0 Co-Simulation) in addition:
 
@@ -1137,3 +1139,41 @@ def test_ten_samples_of_a_million_on_both_inputs_change_nothing_silently(new_sla
     assert slave.fmu.getInteger([slave.vr["rejected_measurements"]])[0] == 20
     assert not out[300:310, 2].any() and out[320:, 2].all()
     assert out[302:310, 3].all() and out[302:310, 4].all() and not out[320:, 3:].any()
+
+
+#: The items of the `InputStatus` enumeration the `<input>_status` outputs have.
+INPUT_STATUS = {"used": 1, "rejected": 2, "missing": 3, "stuck": 4}
+
+
+def test_every_measurement_has_a_status_output_and_on_clean_data_every_status_is_used(case_slave, case):
+    """Each measurement input has an Enumeration output `<input>_status` of the
+    declared type InputStatus (used 1, rejected 2, missing 3, stuck 4): missing
+    before the first update; on the case's clean inputs, after the inputs of
+    t_k (the feedthrough update at t_k) and after the step from t_k (the same
+    update, the latest), used wherever the input has a value and missing where
+    an intermittent input (S4's marker) has none."""
+    md = case.model_description
+    (status_type,) = [t for t in md.typeDefinitions if t.name == "InputStatus"]
+    assert {item.name: int(item.value) for item in status_type.items} == INPUT_STATUS
+    slave = case_slave()
+    by_name = {v.name: v for v in md.modelVariables}
+    statuses = [f"{n}_status" for n in slave.measurements]
+    for name in statuses:
+        v = by_name.get(name)
+        assert v is not None, f"{name} is missing"
+        assert (v.causality, v.variability, v.type) == ("output", "discrete", "Enumeration"), name
+        assert v.declaredType.name == "InputStatus", name
+    assert {v.name for v in md.modelVariables if v.name.endswith("_status")} == set(statuses)
+    vrs = [slave.vr[n] for n in statuses]
+    slave.initialize(**case.sensor)
+    assert slave.fmu.getInteger(vrs) == [INPUT_STATUS["missing"]] * len(vrs), "before any update"
+    m = len(slave.measurements)
+    for k, z in enumerate(case.z[:200]):
+        expected = [INPUT_STATUS["used"] if np.isfinite(x) else INPUT_STATUS["missing"] for x in z[:m]]
+        assert all(
+            e == INPUT_STATUS["used"] for n, e in zip(slave.measurements, expected) if n not in case.intermittent
+        ), f"the clean data of sample {k} has a gap"
+        slave.inputs(z)
+        assert slave.fmu.getInteger(vrs) == expected, f"after the inputs of sample {k}"
+        slave.step()
+        assert slave.fmu.getInteger(vrs) == expected, f"after the step from sample {k}"

@@ -9,9 +9,9 @@
 
 use std::ffi::CString;
 
-use estimator::{Event, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
+use estimator::{Event, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
 
-use crate::estimators::{self, Descriptor, MAX_DERIVED};
+use crate::estimators::{self, status_value, Descriptor, MAX_DERIVED};
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
 use crate::state::ModelState;
 use crate::timing::{Estimation, InputTiming, Reading};
@@ -101,6 +101,10 @@ impl Instance {
         self.values = self.descriptor.variables.iter().map(|v| v.start.unwrap_or(f64::NAN)).collect();
         self.set_role(Role::SkippedMeasurements, 0.0);
         self.set_role(Role::FilterHealthy, 1.0);
+        // No update has been made: no input has entered one.
+        for row in 0..self.descriptor.measurement_dim() {
+            self.set_role(Role::InputStatus(row), f64::from(status_value(RowOutcome::Missing)));
+        }
         self.start_time = 0.0;
         self.stop_time = None;
         self.time = 0.0;
@@ -272,10 +276,18 @@ impl Instance {
     /// parameters (left as they were while the parameters do not build a filter).
     pub fn refresh_initial_outputs(&mut self) {
         if let Ok(filter) = build_filter(&self.descriptor, &self.values, self.start_time) {
-            let faulty = vec![false; self.descriptor.measurement_dim()];
+            let m = self.descriptor.measurement_dim();
+            let (faulty, statuses) = (vec![false; m], vec![RowOutcome::Missing; m]);
             let nis = filter.innovation().nis();
-            let prior =
-                Reading { belief: filter.as_ref(), nis, skipped: 0, rejected: 0, faulty: &faulty, healthy: true };
+            let prior = Reading {
+                belief: filter.as_ref(),
+                nis,
+                skipped: 0,
+                rejected: 0,
+                faulty: &faulty,
+                statuses: &statuses,
+                healthy: true,
+            };
             write_outputs(&self.descriptor, &mut self.values, Some(&prior));
         }
     }
@@ -357,7 +369,7 @@ impl Instance {
             estimation.take_events(|e| events.push(e));
         }
         let input = |row: usize| {
-            self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).map_or("?", |v| v.name)
+            self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).map_or("?", |v| &v.name)
         };
         // An intermittent input (a marker) is missing most of the time: its flag says nothing.
         let intermittent =
@@ -504,6 +516,9 @@ fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&R
             (Role::SkippedMeasurements, Some(r)) => *x = r.skipped as f64,
             (Role::RejectedMeasurements, Some(r)) => *x = r.rejected as f64,
             (Role::ChannelFault(row), Some(r)) => *x = f64::from(u8::from(r.faulty[row])),
+            (Role::InputStatus(row), Some(r)) => {
+                *x = f64::from(status_value(r.statuses.get(row).copied().unwrap_or(RowOutcome::Missing)));
+            }
             (Role::FilterHealthy, Some(r)) => *x = f64::from(u8::from(r.healthy)),
             (Role::Derived(k), _) => *x = derived.get(k).copied().unwrap_or(f64::NAN),
             (Role::Estimate(_) | Role::EstimateStd(_) | Role::Nis, None) => *x = f64::NAN,

@@ -75,7 +75,7 @@ pub fn model_description(d: &Descriptor) -> String {
         let _ = writeln!(
             x,
             r#"    <ScalarVariable name="{}" valueReference="{vr}" description="{}" causality="{}" variability="{}"{initial}>"#,
-            esc(v.name),
+            esc(&v.name),
             esc(v.description),
             causality(v),
             variability(v)
@@ -228,6 +228,15 @@ const SUPERVISION: &str = concat!(
     "<li><b><code>&lt;input&gt;_fault</code></b> is true while the input's last {fault_after} samples were all ",
     "rejected, stuck or missing, and false again at the first sample it passes. Each change is logged once, with ",
     "the input and the time.</li>\n",
+    "<li><b><code>&lt;input&gt;_status</code></b> (Enumeration <code>InputStatus</code>, one per measurement input) ",
+    "says what became of the input in the update the outputs show: 1 <code>used</code>, 2 <code>rejected</code> by ",
+    "the gate, 3 <code>missing</code> (NaN, infinite or never set), 4 <code>stuck</code>. Read after the inputs of a ",
+    "sample instant t are set, it is that of the update at t (direct feedthrough); after a step, that of the latest ",
+    "update (with <code>input_timing</code> = 1 the one at the step's start, with 2 the one at its end); read between ",
+    "samples (a prediction, no measurement enters) also that of the latest update; before the first update every ",
+    "input is <code>missing</code>. A single gross error shows here at its sample, where ",
+    "<code>&lt;input&gt;_fault</code> needs <code>fault_after</code> bad samples in a row. The FMU state holds ",
+    "them.</li>\n",
     "<li><b>Re-acquisition.</b> An input failing the gate {reacquire_after} samples in a row makes the filter ",
     "inflate its covariance and update with every input, so that the gate cannot lock it out of a true change (a ",
     "load step); if that input fails again within {consistency_window} samples it was the sensor, and it triggers ",
@@ -297,7 +306,7 @@ fn with_default(v: &Variable) -> String {
         Some(unit) if unit != "1" && v.kind == Kind::Real => format!(" {}", esc(unit)),
         _ => String::new(),
     };
-    format!("<code>{}</code> (default {value}{unit})", esc(v.name))
+    format!("<code>{}</code> (default {value}{unit})", esc(&v.name))
 }
 
 /// `x` as a reader writes it, and exactly (the shortest digits that read back as `x`):
@@ -415,7 +424,7 @@ pub fn documentation(d: &Descriptor) -> String {
             let _ = write!(
                 h,
                 "<tr><td><code>{}</code></td><td>{vr}</td><td>{}</td><td>{kind}</td>",
-                esc(v.name),
+                esc(&v.name),
                 esc(v.unit.unwrap_or(""))
             );
             if causality == Causality::Parameter {

@@ -10,24 +10,29 @@
 //! estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
 //!                           supervisor memory (u32 count + u64 each)
 //!                           controls in force (u32 count + f64 each)
+//!                           input statuses of the latest update (u32 count + u8 InputStatus value each)
 //!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
 //! ```
 //!
 //! All numbers little-endian. Version 4 added the controls in force (the
 //! controls the filter holds for its sample are the snapshot's input);
 //! version 6 has the supervisor memory's self-describing layout (a header,
-//! then named records). The filter and its twin for reads are rebuilt
-//! from the parameter values and the belief restored from the snapshot; the
-//! outputs are computed afresh at the next read, from exactly that.
+//! then named records); version 7 adds the input statuses (the outcome of
+//! each measurement row in the latest update, which the `<input>_status`
+//! outputs show and the supervisor's memory does not hold). The filter and
+//! its twin for reads are rebuilt from the parameter values and the belief
+//! restored from the snapshot; the outputs are computed afresh at the next
+//! read, from exactly that.
 
 use estimator::{FilterKind, Snapshot};
 
+use crate::estimators::{status_outcome, status_value};
 use crate::instance::Instance;
 use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.
@@ -63,6 +68,10 @@ pub fn save(instance: &Instance) -> Vec<u8> {
                 w.u64(word);
             }
             w.f64s(&p.controls);
+            w.u32(p.statuses.len() as u32);
+            for &status in &p.statuses {
+                w.u8(status_value(status) as u8);
+            }
             w.u8(kind_tag(p.belief.kind));
             w.f64(p.belief.time);
             w.f64s(&p.belief.input);
@@ -141,11 +150,17 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
                     controls.len()
                 ));
             }
+            if r.u32()? as usize != m {
+                return Err(format!("FMU state has another number of input statuses than the FMU's {m} inputs"));
+            }
+            let statuses = (0..m)
+                .map(|_| r.u8().and_then(|v| status_outcome(i32::from(v)).ok_or(format!("bad input status {v}"))))
+                .collect::<Result<Vec<_>, String>>()?;
             let kind = kind_of(r.u8()?)?;
             let time = r.f64()?;
             let (input, mean, covariance) = (r.f64s()?, r.f64s()?, r.f64s()?);
             let belief = Snapshot { kind, time, input, mean, covariance };
-            Some(Progress { samples, measured, skipped, nis, supervisor, controls, belief })
+            Some(Progress { samples, measured, skipped, nis, supervisor, controls, statuses, belief })
         }
     };
     if r.at != bytes.len() {

@@ -27,6 +27,12 @@
 //!    measurements up to `t` once an input was set at `t`, and predicted from
 //!    the earlier ones before that.
 //!
+//! What became of each measurement row ([`Reading::statuses`]) is that of the
+//! update the belief read includes: the feedthrough update at a read after
+//! inputs were set at a sample instant, else the latest committed one (at a
+//! prediction off the grid too: no measurement enters there); before the
+//! first update every row is missing, as none has entered.
+//!
 //! Every update, at a step or for a read, goes through the instance's
 //! `estimator::SupervisedFilter`, the loop every study runs too (gate, fault
 //! flags, re-acquisition, consistency): these rules only say when it predicts,
@@ -67,7 +73,7 @@
 //!    values, the filter's held input (the controls of its current sample) and
 //!    [`Progress::controls`] (those in force from the FMU's time on).
 
-use estimator::{Event, FilterError, Noise, Snapshot, StateEstimator, SupervisedFilter, Supervisor};
+use estimator::{Event, FilterError, Noise, RowOutcome, Snapshot, StateEstimator, SupervisedFilter, Supervisor};
 
 /// How the inputs set before `fmi2DoStep(t, h)` are timed (the `input_timing` parameter).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,6 +122,9 @@ pub struct Reading<'a> {
     pub rejected: u64,
     /// Per measurement row: the channel is faulty, likewise.
     pub faulty: &'a [bool],
+    /// Per measurement row: what became of it in the latest update the belief
+    /// includes (all missing before the first update).
+    pub statuses: &'a [RowOutcome],
     /// The filter is consistent and not lost (`estimator::Supervisor::healthy`).
     pub healthy: bool,
 }
@@ -153,6 +162,10 @@ pub struct Estimation {
     measured: bool,
     /// Per measurement row, for readings: the fault flags shown.
     faulty: Vec<bool>,
+    /// Per measurement row: its outcome in the latest committed update. Kept
+    /// apart from the supervisor's pending outcome, which a feedthrough read
+    /// or a failed update overwrites and an FMU state does not hold.
+    committed_statuses: Vec<RowOutcome>,
 }
 
 /// The part of an [`Estimation`] an FMU state saves: the rest comes from the parameters.
@@ -171,6 +184,9 @@ pub struct Progress {
     /// The controls in force from the FMU's time on (`AtStepEnd`: those of that
     /// time, needed by the next step's predictions).
     pub controls: Vec<f64>,
+    /// Per measurement row: its outcome in the latest committed update (the
+    /// supervisor's memory does not hold it, the status outputs show it).
+    pub statuses: Vec<RowOutcome>,
     /// The filter's belief at the current sample (its held input: the controls
     /// of that sample).
     pub belief: Snapshot,
@@ -207,6 +223,7 @@ impl Estimation {
             samples: 0,
             measured: false,
             faulty: vec![false; m],
+            committed_statuses: vec![RowOutcome::Missing; m],
         })
     }
 
@@ -220,7 +237,15 @@ impl Estimation {
                 self.standing.len()
             )));
         }
+        if progress.statuses.len() != self.committed_statuses.len() {
+            return Err(FilterError::InvalidSetting(format!(
+                "{} input statuses saved, the model has {} measurement rows",
+                progress.statuses.len(),
+                self.committed_statuses.len()
+            )));
+        }
         self.standing.copy_from_slice(&progress.controls);
+        self.committed_statuses.copy_from_slice(&progress.statuses);
         self.sample_controls.copy_from_slice(&progress.belief.input);
         self.supervised.resume(progress.skipped, progress.nis, &progress.supervisor)?;
         self.samples = progress.samples;
@@ -241,6 +266,7 @@ impl Estimation {
                 words
             },
             controls: self.standing.clone(),
+            statuses: self.committed_statuses.clone(),
             belief: self.supervised.filter().snapshot(),
         }
     }
@@ -302,6 +328,7 @@ impl Estimation {
                 if let Err(error) = self.supervised.commit_preview(self.reader.as_ref(), &mut self.copy, z, time) {
                     return Err(self.failure(self.samples, error));
                 }
+                self.committed_statuses.copy_from_slice(&self.supervised.supervisor().pending().rows);
                 self.measured = true;
             } else {
                 self.update(z)?;
@@ -351,7 +378,8 @@ impl Estimation {
     fn update(&mut self, z: &[f64]) -> Result<(), StepFailure> {
         let time = self.current_sample();
         match self.supervised.update(z, time) {
-            Ok(_) => {
+            Ok(outcome) => {
+                self.committed_statuses.copy_from_slice(&outcome.rows);
                 self.measured = true;
                 Ok(())
             }
@@ -394,7 +422,15 @@ impl Estimation {
                     }
                     let rejected = supervisor.rejected_with_pending();
                     let healthy = supervisor.healthy_with_pending();
-                    Ok(Reading { belief: self.reader.as_ref(), nis, skipped, rejected, faulty: &self.faulty, healthy })
+                    Ok(Reading {
+                        belief: self.reader.as_ref(),
+                        nis,
+                        skipped,
+                        rejected,
+                        faulty: &self.faulty,
+                        statuses: &supervisor.pending().rows,
+                        healthy,
+                    })
                 }
                 _ => Ok(self.committed_reading(false)),
             }
@@ -438,6 +474,7 @@ impl Estimation {
             skipped: self.supervised.skipped(),
             rejected: supervisor.rejected(),
             faulty: &self.faulty,
+            statuses: &self.committed_statuses,
             healthy: supervisor.healthy(),
         }
     }

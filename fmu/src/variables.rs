@@ -5,6 +5,8 @@
 //! Value references are the variables' positions in the table; every value is
 //! stored as an `f64` (Integers, Booleans and Enumerations are exact in it).
 
+use std::borrow::Cow;
+
 /// `causality` of a variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Causality {
@@ -73,6 +75,9 @@ pub enum Role {
     RejectedMeasurements,
     /// Output: measurement row `j`'s channel is faulty.
     ChannelFault(usize),
+    /// Output: what became of measurement row `j` in the update the outputs
+    /// show (an [`crate::estimators::INPUT_STATUS`] value).
+    InputStatus(usize),
     /// Output: the filter is consistent, not lost, and has not failed.
     FilterHealthy,
     /// Output `k` of the estimator's derived outputs (`Descriptor::derive`).
@@ -82,8 +87,9 @@ pub enum Role {
 /// One scalar variable.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Variable {
-    /// Unique name.
-    pub name: &'static str,
+    /// Unique name: written in the tables, or made from another variable's
+    /// (`<input>_status`) when the table is built.
+    pub name: Cow<'static, str>,
     /// Description shown by importers.
     pub description: &'static str,
     /// Value type.
@@ -111,7 +117,7 @@ impl Variable {
     /// A fixed Real parameter.
     pub fn parameter(name: &'static str, unit: &'static str, start: f64, description: &'static str) -> Self {
         Self {
-            name,
+            name: Cow::Borrowed(name),
             description,
             kind: Kind::Real,
             causality: Causality::Parameter,
@@ -186,6 +192,22 @@ impl Variable {
             variability: Variability::Discrete,
             unit: None,
             ..Self::output(name, "1", role, description)
+        }
+    }
+
+    /// An Enumeration output of type `t` (discrete), called `name`.
+    pub fn enumeration_output(
+        name: String,
+        t: &'static EnumerationType,
+        role: Role,
+        description: &'static str,
+    ) -> Self {
+        Self {
+            name: Cow::Owned(name),
+            kind: Kind::Enumeration(t),
+            variability: Variability::Discrete,
+            unit: None,
+            ..Self::output("", "1", role, description)
         }
     }
 

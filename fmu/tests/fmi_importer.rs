@@ -24,14 +24,18 @@
 //!   drives it (set the inputs of t, read, step, read); the read after the
 //!   inputs equals the reference after its update at t, the read after the
 //!   step its prediction to t + dt, every estimate, deviation and the NIS bit
-//!   for bit; the counts and flags at the end are the supervisor's;
+//!   for bit, each `<input>_status` the supervisor's outcome of its row; the
+//!   counts and flags at the end are the supervisor's;
 //! * `*_communication_steps_shorter_and_longer_than_the_sample_time`: a master
 //!   stepping by a fifth of the sample time and by two sample times (S1: 1 and
 //!   10 ms at 5 ms); every read equals the reference run by the rules of
 //!   `fmu/src/timing.rs`, bit for bit;
 //! * `*_fmu_state_get_set_serialize_through_the_importer`: saved, restored and
 //!   serialised states replay the same outputs, in the same instance and in a
-//!   fresh one; garbage, truncated and foreign bytes are refused.
+//!   fresh one; garbage, truncated and foreign bytes are refused;
+//! * `s4_input_status_says_what_became_of_each_telegram`: the `<input>_status`
+//!   outputs on S4's telegrams: `rejected` at exactly the spike (its fault flag
+//!   false), `stuck` on the resend, `missing` on the dropout, `used` elsewhere.
 //!
 //! The FMUs are packaged in-process the way `package-fmus` does it, from the
 //! `libkalfmu_fmu.so` that cargo builds for this very test run (under
@@ -246,29 +250,29 @@ impl Setup {
     }
 
     /// The names of the variables of this role, in table order.
-    fn names(&self, role: impl Fn(Role) -> bool) -> Vec<&'static str> {
-        self.descriptor.variables.iter().filter(|v| role(v.role)).map(|v| v.name).collect()
+    fn names(&self, role: impl Fn(Role) -> bool) -> Vec<&str> {
+        self.descriptor.variables.iter().filter(|v| role(v.role)).map(|v| &*v.name).collect()
     }
 
     /// The inputs, in measurement-row order.
-    fn inputs(&self) -> Vec<&'static str> {
+    fn inputs(&self) -> Vec<&str> {
         (0..self.descriptor.measurement_dim()).flat_map(|row| self.names(|r| r == Role::Measurement(row))).collect()
     }
 
     /// The controls, in the order of the model's input.
-    fn controls(&self) -> Vec<&'static str> {
+    fn controls(&self) -> Vec<&str> {
         (0..self.descriptor.control_dim()).flat_map(|j| self.names(|r| r == Role::Control(j))).collect()
     }
 
     /// The outputs compared: every estimate and standard deviation as
     /// `(name, state index, standard deviation?)`, in table order; then `nis`.
-    fn estimates(&self) -> Vec<(&'static str, usize, bool)> {
+    fn estimates(&self) -> Vec<(&str, usize, bool)> {
         let of = |role: Role| match role {
             Role::Estimate(i) => Some((i, false)),
             Role::EstimateStd(i) => Some((i, true)),
             _ => None,
         };
-        self.descriptor.variables.iter().filter_map(|v| of(v.role).map(|(i, std)| (v.name, i, std))).collect()
+        self.descriptor.variables.iter().filter_map(|v| of(v.role).map(|(i, std)| (&*v.name, i, std))).collect()
     }
 
     fn reference_filter(&self) -> Box<dyn StateEstimator> {
@@ -606,6 +610,8 @@ struct Fmu {
     inputs: Vec<u32>,
     controls: Vec<u32>,
     outputs: Vec<u32>,
+    /// The `<input>_status` outputs, in measurement-row order.
+    statuses: Vec<u32>,
 }
 
 impl Fmu {
@@ -620,8 +626,9 @@ impl Fmu {
         let inputs = setup.inputs().iter().map(|n| vr[*n]).collect();
         let controls = setup.controls().iter().map(|n| vr[*n]).collect();
         let outputs = setup.estimates().iter().map(|(n, _, _)| vr[*n]).chain([vr["nis"]]).collect();
+        let statuses = setup.inputs().iter().map(|n| vr[&format!("{n}_status")]).collect();
         let instance = import.instantiate_cs(name, false, true).expect("fmi2Instantiate");
-        Self { instance, vr, inputs, controls, outputs }
+        Self { instance, vr, inputs, controls, outputs, statuses }
     }
 
     /// SetupExperiment + EnterInitializationMode, the parameters, ExitInitializationMode.
@@ -704,9 +711,14 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
         }
         fmu.set_inputs(zk);
         nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
+        let rows: Vec<i32> = supervisor.pending().rows.iter().map(|&row| estimators::status_value(row)).collect();
         supervisor.commit(|_| {});
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
+        // Each input's status is the supervisor's outcome of its row.
+        let mut statuses = vec![0; rows.len()];
+        Common::get_integer(&mut fmu.instance, &fmu.statuses, &mut statuses).expect("fmi2GetInteger");
+        assert_eq!(statuses, rows, "{model}: the input statuses at sample {k}");
         if k < SAMPLES {
             fmu.do_step(t, dt);
         }
@@ -724,7 +736,7 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
         .descriptor
         .variables
         .iter()
-        .filter_map(|v| if let Role::ChannelFault(row) = v.role { Some((v.name, row)) } else { None })
+        .filter_map(|v| if let Role::ChannelFault(row) = v.role { Some((&*v.name, row)) } else { None })
         .collect();
     let flags: Vec<&str> = ["filter_healthy"].into_iter().chain(flagged.iter().map(|(n, _)| *n)).collect();
     let vrs: Vec<u32> = flags.iter().map(|n| fmu.vr[*n]).collect();
@@ -981,4 +993,85 @@ fn s5_fmu_state_get_set_serialize_through_the_importer() {
 
 fn bits(rows: &[Vec<f64>]) -> Vec<Vec<u64>> {
     rows.iter().map(|r| r.iter().map(|x| x.to_bits()).collect()).collect()
+}
+
+/// The `InputStatus` values of the `<input>_status` outputs.
+const USED: i32 = 1;
+const REJECTED: i32 = 2;
+const MISSING: i32 = 3;
+const STUCK: i32 = 4;
+
+/// S4 on `s4_telegrams` (a spike on the first channel at sample 300, the second resent
+/// at 700–703, the fourth not received at 800–805, a marker every 50th): each input's
+/// `<input>_status` is what became of it in the update the read shows. After the
+/// inputs of t_k (the feedthrough update) and after the step from t_k (the same update,
+/// the latest) the first channel reads `rejected` at exactly the spike and `used`
+/// around it while its fault flag stays false; the second `stuck` on the repeats, the
+/// fourth `missing` on the NaN, the marker `used` only where one passes. Before any
+/// update every status is `missing`; a read between samples (a prediction) and a
+/// restored FMU state show the latest update's.
+#[test]
+fn s4_input_status_says_what_became_of_each_telegram() {
+    let setup = Setup::s4();
+    let (model, dt) = (setup.model(), setup.sample_time());
+    let samples = 900;
+    let z = s4_telegrams(&setup, samples + 1, dt, 20240611);
+    let import: Fmi2Import = fmi::import::from_path(fmu_path(model)).expect("importing the .fmu");
+    let mut fmu = Fmu::new(&import, &setup, model);
+    fmu.initialise(&setup, 100.0);
+    let inputs = setup.inputs();
+    let statuses = fmu.statuses.clone();
+    let fault = fmu.vr["P_head_left_fault"];
+    let read_statuses = |fmu: &mut Fmu| {
+        let mut got = vec![0; statuses.len()];
+        Common::get_integer(&mut fmu.instance, &statuses, &mut got).expect("fmi2GetInteger of the statuses");
+        got
+    };
+    assert_eq!(read_statuses(&mut fmu), vec![MISSING; inputs.len()], "before any update");
+
+    let expected = |k: usize| -> Vec<i32> {
+        let head_left = if k == 300 { REJECTED } else { USED };
+        let head_right = if (700..704).contains(&k) { STUCK } else { USED };
+        let tail_right = if (800..806).contains(&k) { MISSING } else { USED };
+        let marker = if k.is_multiple_of(50) { USED } else { MISSING };
+        vec![head_left, head_right, USED, tail_right, marker]
+    };
+    // The slot slip of the third channel from 500 on fails the gate until it is taken as a step.
+    let checked = |k: usize| if (500..510).contains(&k) { [0, 1, 3, 4].as_slice() } else { [0, 1, 2, 3, 4].as_slice() };
+    let mut saved = None;
+    for (k, zk) in z[..samples].iter().enumerate() {
+        fmu.set_inputs(zk);
+        let at = read_statuses(&mut fmu);
+        fmu.do_step(k as f64 * dt, dt);
+        let after = read_statuses(&mut fmu);
+        for &c in checked(k) {
+            assert_eq!(at[c], expected(k)[c], "{} after the inputs of sample {k}", inputs[c]);
+            assert_eq!(after[c], expected(k)[c], "{} after the step from sample {k}", inputs[c]);
+        }
+        if (299..=301).contains(&k) {
+            let mut flag = [1];
+            Common::get_boolean(&mut fmu.instance, &[fault], &mut flag).expect("fmi2GetBoolean");
+            assert_eq!(flag, [0], "one spike at sample {k} makes no fault");
+        }
+        if k == 300 {
+            saved = Some(fmu.instance.get_fmu_state().expect("fmi2GetFMUstate"));
+        }
+    }
+
+    // Half a sample on from the update at the last sample: a prediction, which shows
+    // that update's statuses (a step from a sample without new inputs would update
+    // with the held ones, bit for bit repeats: stuck).
+    fmu.set_inputs(&z[samples]);
+    fmu.do_step(samples as f64 * dt, 0.5 * dt);
+    assert_eq!(read_statuses(&mut fmu), expected(samples), "between samples");
+
+    // The state saved after the spike's step, restored here and in a fresh instance.
+    let saved = saved.expect("the state after sample 300");
+    let bytes = fmu.instance.serialize_fmu_state(&saved).expect("fmi2SerializeFMUstate");
+    fmu.instance.set_fmu_state(&saved).ok().expect("fmi2SetFMUstate");
+    assert_eq!(read_statuses(&mut fmu), expected(300), "restored");
+    let mut fresh = Fmu::new(&import, &setup, "fresh");
+    let restored = fresh.instance.deserialize_fmu_state(&bytes).expect("fmi2DeSerializeFMUstate");
+    fresh.instance.set_fmu_state(&restored).ok().expect("fmi2SetFMUstate in a fresh instance");
+    assert_eq!(read_statuses(&mut fresh), expected(300), "restored in a fresh instance");
 }

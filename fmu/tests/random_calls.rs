@@ -787,7 +787,7 @@ impl Sequence {
                 .collect();
             let r = self.pick(&fixed);
             let d = vars[r as usize].start.expect("a start value");
-            return match vars[r as usize].name {
+            return match &*vars[r as usize].name {
                 // Only sample times that keep steps short are accepted; the rest is out of bounds.
                 "sample_time" => (r, self.pick(&[d, 2.0 * d, 0.5 * d, 0.0, -1.0, f64::NAN, 1e-12]), false),
                 _ => {

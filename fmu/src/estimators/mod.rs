@@ -8,7 +8,7 @@ mod s2_wheel_rail;
 mod s4_maglev;
 mod s5_missile;
 
-use estimator::{FilterKind, Noise, QuantizedSteps, StateEstimator, SupervisorSettings, UnscentedParams};
+use estimator::{FilterKind, Noise, QuantizedSteps, RowOutcome, StateEstimator, SupervisorSettings, UnscentedParams};
 
 use crate::model_description;
 use crate::timing::Reading;
@@ -83,10 +83,14 @@ pub struct Descriptor {
 }
 
 impl Descriptor {
-    /// Completes a description: appends the variables every estimator has and
+    /// Completes a description: appends the variables every estimator has (an
+    /// `<input>_status` per measurement input last, so that the value
+    /// references of the rest do not depend on how many inputs there are) and
     /// derives the GUID from the whole table.
     fn finish(mut self) -> Self {
         self.variables.extend(common_variables(self.default_experiment.step, self.default_filter, &self.supervision));
+        let statuses: Vec<Variable> = self.variables.iter().filter_map(status_variable).collect();
+        self.variables.extend(statuses);
         self.guid = guid_of(self.model_identifier, &self.variables);
         self
     }
@@ -157,6 +161,47 @@ pub static INPUT_TIMING: EnumerationType = EnumerationType {
         (2, "step_end", "at t + h: for masters that step the plant first and hand over its outputs of t + h"),
     ],
 };
+
+/// What became of a measurement input in an update (`estimator::RowOutcome`), the
+/// type of the `<input>_status` outputs.
+pub static INPUT_STATUS: EnumerationType = EnumerationType {
+    name: "InputStatus",
+    items: &[
+        (1, "used", "the update used the input"),
+        (2, "rejected", "the innovation gate rejected the input: left out of the update, a gross error"),
+        (3, "missing", "the input was NaN, infinite or never set (or no update has been made yet): left out"),
+        (4, "stuck", "the input repeated its value bit for bit stuck_after times: left out as stuck"),
+    ],
+};
+
+/// The [`INPUT_STATUS`] value of a row outcome.
+pub fn status_value(outcome: RowOutcome) -> i32 {
+    match outcome {
+        RowOutcome::Used => 1,
+        RowOutcome::Rejected => 2,
+        RowOutcome::Missing => 3,
+        RowOutcome::Stuck => 4,
+    }
+}
+
+/// The row outcome of an [`INPUT_STATUS`] value, if it is one.
+pub fn status_outcome(value: i32) -> Option<RowOutcome> {
+    [RowOutcome::Used, RowOutcome::Rejected, RowOutcome::Missing, RowOutcome::Stuck]
+        .into_iter()
+        .find(|&outcome| status_value(outcome) == value)
+}
+
+/// The `<input>_status` output of a measurement input (`None` for any other variable).
+fn status_variable(input: &Variable) -> Option<Variable> {
+    let Role::Measurement(row) = input.role else { return None };
+    Some(Variable::enumeration_output(
+        format!("{}_status", input.name),
+        &INPUT_STATUS,
+        Role::InputStatus(row),
+        "what became of the input in the update the outputs show: 1 used, 2 rejected by the gate, 3 missing \
+         (NaN, infinite or never set), 4 stuck; read between samples, that of the latest update; 3 before the first",
+    ))
+}
 
 /// The filter kinds in the order of [`FILTER_KIND`]'s items.
 const KINDS: [FilterKind; 5] =
@@ -317,6 +362,9 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
         if flagged == input.intermittent {
             return Err(format!("measurement row {row} must have a fault flag output unless it is intermittent"));
         }
+        if vars.iter().filter(|v| v.role == Role::InputStatus(row)).count() != 1 {
+            return Err(format!("measurement row {row} must have exactly one status output"));
+        }
     }
     for j in 0..descriptor.control_dim() {
         if !vars.iter().any(|v| v.role == Role::Control(j)) {
@@ -346,7 +394,7 @@ mod tests {
         let d = &all()[0];
         assert_eq!(guid_of(d.model_identifier, &d.variables), d.guid());
         let mut renamed = d.variables.clone();
-        renamed[0].name = "renamed";
+        renamed[0].name = "renamed".into();
         let mut retyped = d.variables.clone();
         retyped[0].unit = Some("m/s");
         let mut reordered = d.variables.clone();
