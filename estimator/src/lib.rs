@@ -36,7 +36,6 @@
 //! ```
 
 mod adaptive_noise;
-mod chi_square;
 mod error;
 mod filter;
 mod gaussian;

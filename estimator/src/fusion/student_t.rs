@@ -17,7 +17,7 @@
 //! Invalid arguments (`ν ≤ 0` or NaN, a NaN `t`, a probability outside `[0, 1]`)
 //! give NaN rather than a panic.
 
-use crate::chi_square::ln_gamma;
+use chi_square::ln_gamma;
 
 /// Continued-fraction iterations: convergence takes `O(√max(a, b))` of them.
 const MAX_ITERATIONS: usize = 100_000;

@@ -17,7 +17,6 @@
 //! the load estimate with it); the channel flags say which channel disagrees.
 
 use super::settings::SupervisorSettings;
-use crate::chi_square;
 
 /// One sample in the window.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -22,7 +22,6 @@
 use super::outcome::{Outcome, RowOutcome};
 use super::settings::SupervisorSettings;
 use super::Supervisor;
-use crate::chi_square;
 use crate::error::FilterError;
 use crate::filter::{FilterKind, Snapshot, StateEstimator};
 

@@ -1,10 +1,12 @@
-//! The χ² distribution's CDF and quantiles, for the innovation gate and the
-//! consistency test: `P(k/2, x/2)` by the regularised lower incomplete gamma
-//! function (series below `a + 1`, Lentz's continued fraction above), and the
-//! quantile by bisection on it, to about 1e-12 relative.
+//! The χ² distribution's CDF and quantiles, and `ln Γ`: `P(k/2, x/2)` by the
+//! regularised lower incomplete gamma function (series below `a + 1`, Lentz's
+//! continued fraction above), and the quantile by bisection on it, to about 1e-12
+//! relative. One implementation for the estimator's innovation gate and
+//! consistency test and for the analyzer's consistency figures, which must not
+//! depend on the estimator.
 
 /// `ln Γ(x)` for `x > 0` (Lanczos, g = 7, 9 terms: about 1e-15 relative).
-pub(crate) fn ln_gamma(x: f64) -> f64 {
+pub fn ln_gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,
