@@ -10,10 +10,8 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use common::*;
-use estimator::models::{VerticalVehicle, WheelRailVertical};
 use estimator::{
-    build_filter, Discretized, FilterKind, Gaussian, Model, Noise, StateEstimator, Supervisor, SupervisorSettings,
-    UnscentedParams,
+    build_filter, FilterKind, Gaussian, Model, Noise, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams,
 };
 
 struct Counting;
@@ -170,18 +168,7 @@ fn copying_a_belief_between_twins_allocates_nothing_and_is_exact() {
 
 #[test]
 fn no_filter_allocates_per_step_on_the_wheel_rail_model() {
-    let model = Discretized::rk4(WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() }, 1);
-    let mut q = vec![1e-8; 6];
-    q.extend([1e-10; 4]);
-    q.extend([1e-8; 6]);
-    q.extend([1e-10; 4]);
-    q.extend([1e10; 4]);
-    let noise = Noise::diagonal(&q, &[2.5e-3; 7]).unwrap();
-    let mut mean = [0.0; 24];
-    mean[20..].fill(VerticalVehicle::zhai_passenger().static_wheel_load);
-    let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
-    let zs: Vec<Vec<f64>> =
-        (0..100).map(|k| (0..7).map(|i| 0.5 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
+    let (model, noise, prior, zs) = wheel_rail_case(100);
     for filter in every_filter(model, &noise, &prior, UnscentedParams::default()) {
         assert_no_allocation_per_step(filter, &zs, 0.001);
     }

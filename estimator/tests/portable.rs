@@ -19,10 +19,9 @@
 mod common;
 
 use common::*;
-use estimator::models::{VerticalVehicle, WheelRailVertical};
 use estimator::{
-    build_filter, kernels_available, kernels_in_use, with_portable_kernels, Discretized, FilterKind, Gaussian, Kernels,
-    Noise, StateEstimator, UnscentedParams, PORTABLE_VARIABLE,
+    build_filter, kernels_available, kernels_in_use, with_portable_kernels, FilterKind, Kernels, Noise, StateEstimator,
+    UnscentedParams, PORTABLE_VARIABLE,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -110,18 +109,7 @@ fn every_filter_agrees_both_ways_on_the_linear_case_with_missing_rows() {
 
 #[test]
 fn every_filter_agrees_both_ways_on_the_24_state_wheel_rail_model() {
-    let model = Discretized::rk4(WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() }, 1);
-    let mut q = vec![1e-8; 6];
-    q.extend([1e-10; 4]);
-    q.extend([1e-8; 6]);
-    q.extend([1e-10; 4]);
-    q.extend([1e10; 4]);
-    let noise = Noise::diagonal(&q, &[2.5e-3; 7]).unwrap();
-    let mut mean = [0.0; 24];
-    mean[20..].fill(VerticalVehicle::zhai_passenger().static_wheel_load);
-    let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
-    let zs: Vec<Vec<f64>> =
-        (0..300).map(|k| (0..7).map(|i| 0.5 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
+    let (model, noise, prior, zs) = wheel_rail_case(300);
     let inputs = vec![vec![]; zs.len()];
     let build = |kind| build_filter(kind, model.clone(), noise.clone(), &prior, UnscentedParams::default()).unwrap();
     // Not the SVD-CKF: see the module documentation.

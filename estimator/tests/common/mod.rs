@@ -2,7 +2,7 @@
 //! independently of the library, and seeded data sets.
 #![allow(dead_code)]
 
-use estimator::models::{LinearGaussian, Oscillator2Dof, Oscillator2DofLoad};
+use estimator::models::{LinearGaussian, Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical};
 use estimator::{Discretized, Gaussian, Noise, VectorField};
 use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
@@ -153,4 +153,22 @@ pub fn relative_gap(a: &[DVector<f64>], b: &[DVector<f64>]) -> f64 {
 pub fn relative_gap_m(a: &[DMatrix<f64>], b: &[DMatrix<f64>]) -> f64 {
     let scale = b.iter().map(|v| v.norm()).fold(0.0, f64::max);
     a.iter().zip(b).map(|(x, y)| (x - y).norm()).fold(0.0, f64::max) / scale
+}
+
+/// Study S2's 24-state wheel–rail model (RK4 once per sample) with a diagonal `Q`
+/// (motion states small, the four forces 1e10), `R` of 0.05 m/s² per channel, a prior
+/// at the static wheel load, and `samples` synthetic rows of seven sines.
+pub fn wheel_rail_case(samples: usize) -> (Discretized<WheelRailVertical>, Noise, Gaussian, Vec<Vec<f64>>) {
+    let model = Discretized::rk4(WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() }, 1);
+    let mut q = vec![1e-8; 6];
+    q.extend([1e-10; 4]);
+    q.extend([1e-8; 6]);
+    q.extend([1e-10; 4]);
+    q.extend([1e10; 4]);
+    let noise = Noise::diagonal(&q, &[2.5e-3; 7]).unwrap();
+    let mut mean = [0.0; 24];
+    mean[20..].fill(VerticalVehicle::zhai_passenger().static_wheel_load);
+    let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
+    let zs = (0..samples).map(|k| (0..7).map(|i| 0.5 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
+    (model, noise, prior, zs)
 }
