@@ -12,6 +12,7 @@
 //!   cargo run --release -p studies --example s4_tuning_sweep
 
 use estimator::FilterKind;
+use studies::s4::metrics::rejection_excused;
 use studies::s4::ours::{run, Run, Settings, Tuning};
 use truth::s4::channels::simulate;
 use truth::s4::faults::{FaultKind, Faults};
@@ -32,16 +33,6 @@ fn speed_errors(recording: &Recording, out: &Run) -> (f64, f64) {
     (max, (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
 }
 
-/// Telegrams of `channel` a fault makes the gate's business: a spike's telegram and the
-/// first few after a slip (until the slip is re-based).
-fn excused(recording: &Recording, channel: usize, k: usize) -> bool {
-    recording.faults.iter().filter(|f| f.channel as usize == channel).any(|f| match f.kind {
-        FaultKind::Spike { .. } => f.telegrams.contains(&k),
-        FaultKind::SlotSlip { .. } => (f.telegrams.start..f.telegrams.start + 12).contains(&k),
-        _ => false,
-    })
-}
-
 fn main() {
     for (name, profile, intensities) in [
         ("paper", Profile::paper(), vec![0.3, 1.0, 3.0, 10.0, 30.0, 100.0]),
@@ -60,7 +51,8 @@ fn main() {
                 max = max.max(seed_max);
                 mean_square += seed_rms.powi(2) / SEEDS as f64;
                 for (k, estimate) in out.estimates.iter().enumerate() {
-                    false_rejections += (0..4).filter(|&c| estimate.rejected[c] && !excused(&recording, c, k)).count();
+                    false_rejections +=
+                        (0..4).filter(|&c| estimate.rejected[c] && !rejection_excused(&recording, c, k)).count();
                 }
                 channel_telegrams += 4 * recording.n_telegrams();
                 for fault in &recording.faults {

@@ -8,6 +8,7 @@
 //! every filter kind.
 
 use estimator::FilterKind;
+use studies::s4::metrics::rejection_excused;
 use studies::s4::ours::{run, Run, Settings, SlipHandling, Tuning};
 use truth::s4::channels::{simulate, Channel};
 use truth::s4::faults::{FaultKind, Faults};
@@ -64,16 +65,6 @@ fn raw_errors(recording: &Recording) -> (f64, f64) {
     let errors: Vec<f64> = (0..truth.len()).map(|a| raw.iter().map(|r| r[a]).sum::<f64>() / 4.0 - truth[a]).collect();
     let max = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
     (max, (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
-}
-
-/// Telegrams of `channel` a fault makes the gate's business: a spike's telegram and the
-/// first few after a slip (until the slip is re-based).
-fn excused(recording: &Recording, channel: usize, k: usize) -> bool {
-    recording.faults.iter().filter(|f| f.channel as usize == channel).any(|f| match f.kind {
-        FaultKind::Spike { .. } => f.telegrams.contains(&k),
-        FaultKind::SlotSlip { .. } => (f.telegrams.start..f.telegrams.start + 12).contains(&k),
-        _ => false,
-    })
 }
 
 fn settings(kind: FilterKind) -> Settings {
@@ -154,8 +145,9 @@ fn check_faults(recording: &Recording, out: &Run, label: &str) -> f64 {
             println!("{label}: missed {f:?}");
         }
     }
-    let false_rejections: usize =
-        (0..n).map(|k| (0..4).filter(|&c| out.estimates[k].rejected[c] && !excused(recording, c, k)).count()).sum();
+    let false_rejections: usize = (0..n)
+        .map(|k| (0..4).filter(|&c| out.estimates[k].rejected[c] && !rejection_excused(recording, c, k)).count())
+        .sum();
     let false_slips = out
         .slips
         .iter()

@@ -353,3 +353,14 @@ pub fn score_detection(
         offset_false_alarms: (0..4).filter(|&c| offset_detected[c] && !has_offset[c]).count(),
     }
 }
+
+/// Telegrams of `channel` at which a fault makes a rejection by the gate right: a spike's
+/// telegram, and the first 12 after a slot slip (until the supervisor has re-based the
+/// slip into the channel's offset). A rejection anywhere else is a false one.
+pub fn rejection_excused(recording: &Recording, channel: usize, telegram: usize) -> bool {
+    recording.faults.iter().filter(|f| f.channel as usize == channel).any(|f| match f.kind {
+        FaultKind::Spike { .. } => f.telegrams.contains(&telegram),
+        FaultKind::SlotSlip { .. } => (f.telegrams.start..f.telegrams.start + 12).contains(&telegram),
+        _ => false,
+    })
+}
