@@ -546,7 +546,11 @@ fn markdown(comparison: &Comparison) -> String {
         first.rmse_window,
         first.psd_segment,
         first.agreement_db,
-        if several { "**Bold**: the best of the runs (2σ coverage: nearest 0.9545; PSD band: widest)." } else { "" }
+        if several {
+            "**Bold**: the best of the runs (1σ coverage: nearest 0.6827; 2σ coverage: nearest 0.9545; (e/σ)² mean: nearest 1 in ratio; PSD band: widest)."
+        } else {
+            ""
+        }
     );
     for k in 0..first.pairs.len() {
         let pairs: Vec<&PairReport> = comparison.runs.iter().map(|r| &r.pairs[k]).collect();
