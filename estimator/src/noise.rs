@@ -1,5 +1,10 @@
 //! The noise covariances `Q` and `R` of one filter instance, validated once and
 //! kept with a square root each (the square-root filter needs them every step).
+//!
+//! `Q` carries a scale: the filters use `s·Q₀` (root `√s·S_Q₀`) where `Q₀` is
+//! the matrix given. An online adaptation of the process noise sets `s`
+//! every sample ([`Noise::set_q_scale`]), in place and exactly (from `Q₀`,
+//! not by compounding factors).
 
 use nalgebra::{DMatrix, DVector};
 
@@ -15,9 +20,16 @@ use crate::linalg::{SymmetricEigen, Tria};
 /// factorisation would fail on them).
 #[derive(Debug, Clone)]
 pub struct Noise {
+    /// `s·Q₀`.
     q: DMatrix<f64>,
     r: DMatrix<f64>,
+    /// `√s·S_Q₀`.
     q_sqrt: DMatrix<f64>,
+    /// `Q₀` and `S_Q₀`, as given.
+    q_given: DMatrix<f64>,
+    q_sqrt_given: DMatrix<f64>,
+    /// `s`.
+    q_scale: f64,
     r_sqrt: DMatrix<f64>,
     /// `S_Rᵀ`: its columns are the rows of `S_R`, which the SRCKF copies into
     /// its compounds every step, one per used measurement row.
@@ -31,7 +43,8 @@ impl Noise {
         let q_sqrt = lower_square_root("process noise Q", &q)?;
         let r_sqrt = lower_square_root("measurement noise R", &r)?;
         let r_sqrt_t = r_sqrt.transpose();
-        Ok(Self { q, r, q_sqrt, r_sqrt, r_sqrt_t })
+        let (q_given, q_sqrt_given) = (q.clone(), q_sqrt.clone());
+        Ok(Self { q, r, q_sqrt, q_given, q_sqrt_given, q_scale: 1.0, r_sqrt, r_sqrt_t })
     }
 
     /// Diagonal `Q` and `R` from their diagonals (variances).
@@ -42,9 +55,36 @@ impl Noise {
         )
     }
 
-    /// `Q`.
+    /// `Q`: the matrix given, times [`Noise::q_scale`].
     pub fn q(&self) -> &DMatrix<f64> {
         &self.q
+    }
+
+    /// The scale on the `Q` given (1 unless set).
+    pub fn q_scale(&self) -> f64 {
+        self.q_scale
+    }
+
+    /// Makes `Q` the matrix given times `scale`, in place (no allocation).
+    /// Fails, changing nothing, unless `scale` is finite and positive.
+    pub fn set_q_scale(&mut self, scale: f64) -> Result<(), FilterError> {
+        if !(scale > 0.0 && scale.is_finite()) {
+            return Err(FilterError::InvalidSetting(format!(
+                "a process-noise scale must be finite and > 0, got {scale}"
+            )));
+        }
+        if scale == self.q_scale {
+            return Ok(());
+        }
+        let root = scale.sqrt();
+        for (q, given) in self.q.as_mut_slice().iter_mut().zip(self.q_given.as_slice()) {
+            *q = scale * given;
+        }
+        for (q, given) in self.q_sqrt.as_mut_slice().iter_mut().zip(self.q_sqrt_given.as_slice()) {
+            *q = root * given;
+        }
+        self.q_scale = scale;
+        Ok(())
     }
 
     /// `R`.

@@ -12,7 +12,9 @@
 //! 2. **Hold** `uₖ`: the observation `h(x, uₖ)` of this sample sees them.
 //! 3. **Gate and update** through the supervisor ([`Supervisor::gate`]).
 //! 4. **Commit** the outcome ([`Supervisor::commit`]): channel runs, faults,
-//!    the consistency window; what changed becomes an [`Event`].
+//!    the consistency window, the adaptation of the process noise, whose new
+//!    scale on `Q` the filter takes for its next prediction; what changed
+//!    becomes an [`Event`].
 //!
 //! [`SupervisedFilter::run`] makes these steps over a sequence of samples and
 //! shows each [`Step`] to an observer. A driver with its own clock (an FMU,
@@ -170,13 +172,16 @@ impl SupervisedFilter {
     /// committed. On error the belief is as before and nothing is counted.
     pub fn update(&mut self, z: &[f64], time: f64) -> Result<&Outcome, FilterError> {
         self.supervisor.gate(self.filter.as_mut(), z)?;
-        self.commit(z, time);
+        self.commit(z, time)?;
         Ok(self.supervisor.pending())
     }
 
-    /// Step 3 on `reader`, a filter of the same build holding a copy of the
-    /// belief: the update a read shows, left pending; the filter is untouched.
+    /// Step 3 on `reader`, a filter of the same build and noise holding a copy
+    /// of the belief (it is given the adapted scale on `Q` here): the update a
+    /// read shows, left pending; the filter is untouched.
     pub fn preview(&mut self, reader: &mut dyn StateEstimator, z: &[f64]) -> Result<&Outcome, FilterError> {
+        // A review predicts on the reader: it must have the filter's Q.
+        reader.set_process_noise_scale(self.process_noise_scale())?;
         self.supervisor.gate(reader, z)
     }
 
@@ -192,11 +197,10 @@ impl SupervisedFilter {
     ) -> Result<(), FilterError> {
         reader.snapshot_into(copy);
         self.filter.restore(copy)?;
-        self.commit(z, time);
-        Ok(())
+        self.commit(z, time)
     }
 
-    fn commit(&mut self, z: &[f64], time: f64) {
+    fn commit(&mut self, z: &[f64], time: f64) -> Result<(), FilterError> {
         self.skipped += missing_rows(z);
         self.nis = self.supervisor.pending().nis;
         if let Some(channel) = self.supervisor.pending().reacquired {
@@ -211,6 +215,13 @@ impl SupervisedFilter {
         if self.supervisor.exhausted() != was_exhausted {
             self.events.push(Event::Exhausted { exhausted: self.supervisor.exhausted(), time });
         }
+        self.filter.set_process_noise_scale(self.supervisor.process_noise_scale())
+    }
+
+    /// The scale on the `Q` given that the filter predicts with (see
+    /// [`Supervisor::process_noise_scale`]).
+    pub fn process_noise_scale(&self) -> f64 {
+        self.supervisor.process_noise_scale()
     }
 
     /// Takes the events since the last call, oldest first.
@@ -228,13 +239,20 @@ impl SupervisedFilter {
     /// Takes back the counts and the supervisor's memory of a saved run
     /// ([`Supervisor::save`]); on error nothing changes.
     pub fn resume(&mut self, skipped: u64, nis: f64, supervisor: &[u64]) -> Result<(), FilterError> {
+        let before = self.supervisor.clone();
         self.supervisor.load(supervisor)?;
+        if let Err(e) = self.filter.set_process_noise_scale(self.supervisor.process_noise_scale()) {
+            self.supervisor = before;
+            return Err(e);
+        }
         (self.skipped, self.nis) = (skipped, nis);
         Ok(())
     }
 
-    /// New `Q` and `R`; on error the filter keeps its noise.
-    pub fn set_noise(&mut self, noise: crate::noise::Noise) -> Result<(), FilterError> {
+    /// New `Q` and `R` (`Q` as given: the adapted scale stays on it); on
+    /// error the filter keeps its noise.
+    pub fn set_noise(&mut self, mut noise: crate::noise::Noise) -> Result<(), FilterError> {
+        noise.set_q_scale(self.supervisor.process_noise_scale())?;
         self.filter.set_noise(noise)
     }
 

@@ -102,12 +102,15 @@ fn no_filter_allocates_per_step_on_the_s1_model() {
 }
 
 /// The supervisor's gate and bookkeeping allocate nothing per sample either,
-/// with spikes rejected and a stuck channel left out along the way.
+/// with spikes rejected and a stuck channel left out along the way; with the
+/// jumps and the adaptation on too (a spike on the load channel is a jump,
+/// reviewed and retracted at the next sample).
 #[test]
 fn the_supervisor_allocates_nothing_per_sample() {
     let (zs, _) = s1_measurements(400, 0.005, 1.0, 0.05, 6);
-    for mut filter in s1_filters() {
-        let mut supervisor = Supervisor::new(SupervisorSettings::default(), 2).unwrap();
+    let settings = [SupervisorSettings::default(), SupervisorSettings::default().adaptive(200)];
+    for (mut filter, settings) in settings.into_iter().flat_map(|s| s1_filters().into_iter().map(move |f| (f, s))) {
+        let mut supervisor = Supervisor::new(settings, 2).unwrap();
         let mut z = vec![0.0; 2];
         let mut run = |filter: &mut Box<dyn StateEstimator>, range: std::ops::Range<usize>| {
             for k in range {

@@ -1,6 +1,7 @@
 //! The supervised loop as a specification, on a linear-Gaussian model with
 //! controls, a spike, a stuck channel and a dropout, for every filter kind:
-//! `run` is the predict–hold–gate–commit cycle made by hand, bit for bit; the
+//! `run` is the predict–hold–gate–commit cycle made by hand (the commit's
+//! adapted scale on `Q` taken by the filter), bit for bit; the
 //! steps one by one (as the FMU makes them) give the same; an update previewed on
 //! a copy and then committed is the update made directly; a failure says at
 //! which sample it stopped, and no later sample is observed.
@@ -71,6 +72,7 @@ fn run_is_the_predict_hold_gate_commit_cycle_bit_for_bit() {
             s.gate(by_hand.as_mut(), z).unwrap();
             let time = k as f64 * DT;
             s.commit(|c| hand_events.push(Event::Fault { channel: c.channel, faulty: c.faulty, time }));
+            by_hand.set_process_noise_scale(s.process_noise_scale()).unwrap();
             assert_eq!(beliefs[k], bits(by_hand.as_ref()), "{kind}: sample {k}");
         }
         assert_eq!(looped.supervisor().rejected(), s.rejected(), "{kind}");

@@ -108,11 +108,15 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 2);
+    assert_eq!(words[header_word("version")], 3);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
-    assert_eq!(words.len(), entry_word(3, 50, "clipped_ratios"), "the window's entries end the memory");
+    // After the window's entries: the adaptation (2 words), the jump counts (2),
+    // the review's header (5) and a flag per channel; no belief, with no jump under review.
+    let tail = entry_word(3, 50, "clipped_ratios");
+    assert_eq!(words.len(), tail + 2 + 2 + 5 + 3, "the review's rows end the memory");
+    assert_eq!(f64::from_bits(words[tail]), 0.0, "ln of the process-noise scale: not adapted");
     // The named fields hold what the supervisor reports.
     for (c, channel) in s.channels().iter().enumerate() {
         assert_eq!(words[channel_word(c, "rejected")], channel.rejected, "channel {c}");
@@ -169,7 +173,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 2"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 3"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);

@@ -479,14 +479,17 @@ impl Estimation {
         }
     }
 
-    /// Copies the filter's belief into the reader, holding `controls` instead of
-    /// the filter's input when given.
+    /// Copies the filter's belief and its scale on `Q` into the reader, holding
+    /// `controls` instead of the filter's input when given.
     fn load_reader(&mut self, controls: Option<&[f64]>) -> Result<(), String> {
         self.supervised.filter().snapshot_into(&mut self.copy);
         if let Some(u) = controls {
             self.copy.input.copy_from_slice(u);
         }
-        self.reader.restore(&self.copy).map_err(|e| format!("cannot copy the belief for the read: {e}"))
+        self.reader.restore(&self.copy).map_err(|e| format!("cannot copy the belief for the read: {e}"))?;
+        // The prediction to a read between samples uses the adapted Q too.
+        let scale = self.supervised.process_noise_scale();
+        self.reader.set_process_noise_scale(scale).map_err(|e| format!("cannot scale the reader's Q: {e}"))
     }
 
     /// New `Q` and `R` (for one sample time), for the reads too; on error the

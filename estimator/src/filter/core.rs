@@ -180,6 +180,10 @@ macro_rules! core_accessors {
             self.core.noise.set_r_diagonal(variances)
         }
 
+        fn set_process_noise_scale(&mut self, scale: f64) -> Result<(), crate::error::FilterError> {
+            self.core.noise.set_q_scale(scale)
+        }
+
         fn hold_input(&mut self, u: &[f64]) -> Result<(), crate::error::FilterError> {
             self.core.hold_input(u)
         }

@@ -18,7 +18,7 @@ use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{check_scale, FilterKind, StateEstimator};
+use crate::filter::{check_process_noise_factor, check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{mul_to, symmetrize, tr_mul_add, Lanes};
 use crate::model::{Model, BLOCK_POINTS};
@@ -210,6 +210,15 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
         check_scale(factor)?;
         self.p.scale_mut(factor);
         Ok(())
+    }
+
+    fn add_process_noise(&mut self, factor: f64) -> Result<(), FilterError> {
+        check_process_noise_factor(factor)?;
+        let q = self.core.noise.q();
+        for (p, q) in self.p.as_mut_slice().iter_mut().zip(q.as_slice()) {
+            *p += factor * q;
+        }
+        ensure_finite(self.p.as_slice(), Stage::Predict, "covariance P with the added process noise")
     }
 
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {

@@ -84,11 +84,18 @@ pub trait StateEstimator {
     /// Sets the variances of a diagonal `R` in place, without allocating
     /// ([`Noise::set_r_diagonal`]).
     fn set_measurement_variances(&mut self, variances: &[f64]) -> Result<(), FilterError>;
+    /// Scales the `Q` it was given by `scale` (see [`Noise::set_q_scale`]), in
+    /// place, from the next prediction on; on error nothing changes.
+    fn set_process_noise_scale(&mut self, scale: f64) -> Result<(), FilterError>;
     /// Restarts from `prior` at time `t0`, keeping the buffers.
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
     /// Scales the covariance: `P ← factor·P` (`factor ≥ 1`, finite), to open the
     /// belief again when the measurements show it has lost the state.
     fn scale_covariance(&mut self, factor: f64) -> Result<(), FilterError>;
+    /// Adds process noise: `P ← P + factor·Q` (`factor ≥ 0`, finite), the
+    /// uncertainty a jump of the unknown inputs adds (the supervisor's jump
+    /// hypothesis); on error the belief is unchanged.
+    fn add_process_noise(&mut self, factor: f64) -> Result<(), FilterError>;
 
     /// Writes the belief into `out` as plain numbers, reusing its buffers: no
     /// allocation once they have the capacity (copying a belief between two
@@ -155,6 +162,15 @@ pub(crate) fn check_scale(factor: f64) -> Result<(), FilterError> {
         Ok(())
     } else {
         Err(FilterError::InvalidSetting(format!("covariance scale factor must be finite and at least 1, got {factor}")))
+    }
+}
+
+/// Checks the factor of [`StateEstimator::add_process_noise`].
+pub(crate) fn check_process_noise_factor(factor: f64) -> Result<(), FilterError> {
+    if factor >= 0.0 && factor.is_finite() {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidSetting(format!("process-noise factor must be finite and ≥ 0, got {factor}")))
     }
 }
 

@@ -36,7 +36,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{check_scale, FilterKind, StateEstimator};
+use crate::filter::{check_process_noise_factor, check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Lanes, Tria};
 use crate::model::Model;
@@ -403,6 +403,32 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         let root = factor.sqrt();
         self.s.scale_mut(root);
         self.s_t.scale_mut(root);
+        Ok(())
+    }
+
+    fn add_process_noise(&mut self, factor: f64) -> Result<(), FilterError> {
+        check_process_noise_factor(factor)?;
+        // S' = Tria([√factor·S_Q, S]): the predict compound, its top block
+        // √factor·S_Qᵀ (upper triangular, as the layout wants), then Sᵀ, then zeros.
+        let n = self.core.n();
+        let root = factor.sqrt();
+        let q_sqrt = self.core.noise.q_sqrt();
+        for r in 0..n {
+            let column = self.predict_compound.column_mut(r);
+            for k in 0..n {
+                column[k] = root * q_sqrt[(r, k)];
+                column[n + k] = self.s[(r, k)];
+            }
+            column[2 * n..].fill(0.0);
+        }
+        self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
+        ensure_finite(
+            self.s_t_next.as_slice(),
+            Stage::Predict,
+            "square-root covariance S with the added process noise",
+        )?;
+        std::mem::swap(&mut self.s_t, &mut self.s_t_next);
+        self.s_t.transpose_to(&mut self.s);
         Ok(())
     }
 

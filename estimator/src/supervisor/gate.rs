@@ -19,21 +19,25 @@
 //! of its own (implausible ones aside), a failure may instead call for a
 //! re-acquisition (see `reacquisition.rs`).
 
+use super::jump::empty_snapshot;
 use super::outcome::{Outcome, RowOutcome};
 use super::settings::SupervisorSettings;
 use super::Supervisor;
 use crate::error::FilterError;
-use crate::filter::{FilterKind, Snapshot, StateEstimator};
+use crate::filter::{Snapshot, StateEstimator};
 
 /// The gate's thresholds on normalised innovations, from the settings.
 #[derive(Debug, Clone)]
 pub(super) struct Thresholds {
     /// The χ²(1) quantile: a row above it fails.
-    row: f64,
+    pub row: f64,
     /// `implausible_sigmas²`: a row above it is never used.
     implausible: f64,
     /// χ²(k) quantiles, `k = 1 … m` at index `k` (infinite at 0).
     vector: Vec<f64>,
+    /// The clip of a row's normalised innovation in the adaptation's
+    /// evidence: the χ²(1) quantile of `1 − 1e-6`, gate or no gate.
+    pub adaptation_clip: f64,
 }
 
 impl Thresholds {
@@ -51,6 +55,7 @@ impl Thresholds {
             row: quantile(1),
             implausible: settings.implausible_sigmas * settings.implausible_sigmas,
             vector: (0..=m).map(|k| if k == 0 { f64::INFINITY } else { quantile(k) }).collect(),
+            adaptation_clip: chi_square::quantile(1.0, 1.0 - 1e-6),
         }
     }
 }
@@ -61,30 +66,50 @@ pub(super) struct Workspace {
     /// The belief before the gate, restored before each new pass.
     pub before: Snapshot,
     /// `z` with the rows left out so far set to NaN.
-    z_gated: Vec<f64>,
+    pub z_gated: Vec<f64>,
     /// The rows the last pass used.
-    rows: Vec<usize>,
+    pub rows: Vec<usize>,
     /// Their normalised innovations `νᵢ²/Sᵢᵢ`, by row of `z`.
-    ratios: Vec<f64>,
+    pub ratios: Vec<f64>,
+    /// Their innovation variances `Sᵢᵢ`, by row of `z`.
+    pub variances: Vec<f64>,
+    /// `Gᵢ = (H·Q·Hᵀ)ᵢᵢ` from a jump's probe, by row.
+    pub gains: Vec<f64>,
     /// The first pass's residual per row (NaN where not available).
     pub residuals: Vec<f64>,
+    /// The first pass's normalised innovations, by row (NaN where not available).
+    first_ratios: Vec<f64>,
+    /// The first pass's shares `(Sᵢᵢ − rᵢ)/Sᵢᵢ`, by row.
+    shares: Vec<f64>,
+    /// Rows whose failure a jump explains, and failing rows it does not (`jump.rs`).
+    pub explained: Vec<bool>,
+    pub unexplained: Vec<bool>,
+    /// `z` of the fault hypothesis.
+    pub z_hypothesis: Vec<f64>,
+    /// The belief of the fault hypothesis of a jump taken at this sample.
+    pub hypothesis: Snapshot,
+    /// The other belief of a review.
+    pub alternative: Snapshot,
 }
 
 impl Workspace {
     /// Buffers for `m` rows.
     pub fn new(m: usize) -> Self {
         Self {
-            before: Snapshot {
-                kind: FilterKind::Ckf,
-                time: 0.0,
-                input: Vec::new(),
-                mean: Vec::new(),
-                covariance: Vec::new(),
-            },
+            before: empty_snapshot(),
             z_gated: vec![f64::NAN; m],
             rows: Vec::with_capacity(m),
             ratios: vec![f64::NAN; m],
+            variances: vec![f64::NAN; m],
+            gains: vec![f64::NAN; m],
             residuals: vec![f64::NAN; m],
+            first_ratios: vec![f64::NAN; m],
+            shares: vec![0.0; m],
+            explained: vec![false; m],
+            unexplained: vec![false; m],
+            z_hypothesis: vec![f64::NAN; m],
+            hypothesis: empty_snapshot(),
+            alternative: empty_snapshot(),
         }
     }
 
@@ -155,9 +180,13 @@ impl Supervisor {
         crate::error::check_len("measurement z", self.channels.len(), z.len())?;
         self.offer(z);
         filter.snapshot_into(&mut self.work.before);
+        self.reserve_beliefs();
+        self.review(filter)?;
         let mut first_pass = true;
-        // No row has been left out by the gate's own tests yet: a re-acquisition may still be decided.
+        // No row has been left out by the gate's own tests yet: a re-acquisition
+        // may still be decided, or a jump taken.
         let mut may_reacquire = true;
+        let mut may_jump = true;
         while let Some(pass) = self.update_and_test(filter, first_pass)? {
             first_pass = false;
             if pass.passes() {
@@ -175,6 +204,10 @@ impl Supervisor {
                     break;
                 }
             }
+            let jumps = self.settings.jumps;
+            if std::mem::take(&mut may_jump) && jumps && self.try_jump(filter, |r, ratio| pass.fails(r, ratio))? {
+                break;
+            }
             self.work.leave_out(&mut self.pending.rows, |r, ratio| pass.fails(r, ratio));
             filter.restore(&self.work.before)?;
             may_reacquire = false;
@@ -182,7 +215,40 @@ impl Supervisor {
         if let Some(steps) = &self.steps {
             steps.take(&self.channels, &self.work.residuals, &mut self.pending, &mut self.work.before, filter)?;
         }
+        self.gather_adaptation_evidence();
         Ok(&self.pending)
+    }
+
+    /// Gives the belief buffers their size at the first gate, so that no
+    /// later one allocates (a jump, a review copy beliefs).
+    fn reserve_beliefs(&mut self) {
+        let before = &self.work.before;
+        for belief in [&mut self.work.hypothesis, &mut self.work.alternative, &mut self.review.hypothesis] {
+            for (buffer, len) in [
+                (&mut belief.input, before.input.len()),
+                (&mut belief.mean, before.mean.len()),
+                (&mut belief.covariance, before.covariance.len()),
+            ] {
+                buffer.reserve(len.saturating_sub(buffer.len()));
+            }
+        }
+    }
+
+    /// The adaptation's evidence: the first pass's clipped normalised
+    /// innovations and shares of the rows finally used (`adaptation.rs`).
+    fn gather_adaptation_evidence(&mut self) {
+        let clip = self.thresholds.adaptation_clip;
+        let (mut ratios, mut share, mut rows) = (0.0, 0.0, 0);
+        for (r, outcome) in self.pending.rows.iter().enumerate() {
+            let ratio = self.work.first_ratios[r];
+            if *outcome == RowOutcome::Used && ratio.is_finite() {
+                ratios += ratio.min(clip);
+                share += self.work.shares[r];
+                rows += 1;
+            }
+        }
+        (self.pending.adaptation_ratios, self.pending.adaptation_share, self.pending.adaptation_rows) =
+            (ratios, share, rows);
     }
 
     /// Takes `z` as the pending measurement: the missing rows, the stuck ones
@@ -208,7 +274,12 @@ impl Supervisor {
         pending.clipped_ratios = 0.0;
         pending.gated_rows = 0;
         pending.steps.fill(0.0);
+        pending.jump = 0.0;
+        pending.explained.fill(false);
+        pending.reviewed = false;
+        pending.retracted = false;
         self.work.residuals.fill(f64::NAN);
+        self.work.first_ratios.fill(f64::NAN);
     }
 
     /// Updates `filter` with the rows not left out and tests the rows used;
@@ -219,7 +290,8 @@ impl Supervisor {
         filter: &mut dyn StateEstimator,
         first_pass: bool,
     ) -> Result<Option<Pass>, FilterError> {
-        let innovation = filter.update(&self.work.z_gated)?;
+        filter.update(&self.work.z_gated)?;
+        let innovation = filter.innovation();
         let (dof, nis) = (innovation.rows_used(), innovation.nis());
         self.pending.dof = dof;
         self.pending.nis = nis;
@@ -230,7 +302,9 @@ impl Supervisor {
         work.rows.clear();
         work.rows.extend_from_slice(innovation.rows());
         for &r in &work.rows {
-            work.ratios[r] = innovation.residual()[r].powi(2) / innovation.covariance()[(r, r)];
+            let variance = innovation.covariance()[(r, r)];
+            work.variances[r] = variance;
+            work.ratios[r] = innovation.residual()[r].powi(2) / variance;
         }
         let (worst_row, worst) =
             work.tested().fold((work.rows[0], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
@@ -240,8 +314,11 @@ impl Supervisor {
             let clip = row_threshold.min(1e6);
             self.pending.clipped_ratios = work.tested().map(|(_, ratio)| ratio.min(clip)).sum();
             self.pending.gated_rows = dof;
+            let r_given = filter.noise().r();
             for &r in &work.rows {
                 work.residuals[r] = innovation.residual()[r];
+                work.first_ratios[r] = work.ratios[r];
+                work.shares[r] = (1.0 - r_given[(r, r)] / work.variances[r]).clamp(0.0, 1.0);
             }
         }
         Ok(Some(Pass {

@@ -12,6 +12,11 @@
 //! Reacquisition   lost_run, count, since_last, inflation
 //! Cursor          next, filled
 //! WindowEntry × w clipped_ratios, rows
+//! Adaptation      log_scale, mean_ratio
+//! Jumps           taken, retracted
+//! ReviewHeader    active, kind, time, inputs, states
+//! ReviewRow × m   explained
+//! then, as floats, the reviewed belief: inputs, states means, states² covariance words
 //! ```
 //!
 //! The `record!` lines below are that table: a record's words are its fields
@@ -20,17 +25,20 @@
 //! saved: it is judged afresh from the window. The pending outcome of a gate
 //! is not part of the memory.
 
+use super::adaptation::Adaptation;
 use super::channel::Channel;
 use super::consistency::{Cursor, WindowEntry};
+use super::jump::Jumps;
 use super::reacquisition::Reacquisition;
 use super::Supervisor;
 use crate::error::FilterError;
+use crate::filter::FilterKind;
 
 /// The first word of every supervisor memory.
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 2;
+const VERSION: u64 = 3;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -148,6 +156,30 @@ struct Header {
 }
 
 record!(Header { tag, version, channels, channel_words, window });
+
+/// The jump under review (`jump.rs`), and the size of its belief.
+struct ReviewHeader {
+    /// A jump awaits its review.
+    active: bool,
+    /// The belief's filter kind, as its position in `FilterKind::ALL`.
+    kind: usize,
+    /// The belief's time.
+    time: f64,
+    /// Its held inputs.
+    inputs: usize,
+    /// Its states (the covariance has their square).
+    states: usize,
+}
+
+/// Whether a row's failure was explained by the jump under review.
+struct ReviewRow {
+    explained: bool,
+}
+
+record!(ReviewHeader { active, kind, time, inputs, states });
+record!(ReviewRow { explained });
+record!(Adaptation { log_scale, mean_ratio });
+record!(Jumps { taken, retracted });
 record!(Channel {
     bad_run,
     rejected_run,
@@ -185,7 +217,28 @@ impl Supervisor {
     /// The length of this supervisor's memory in words.
     fn memory_words(&self) -> usize {
         let (m, w) = (self.channels.len(), self.window.saved().1.len());
-        Header::WORDS + m * Channel::WORDS + Reacquisition::WORDS + Cursor::WORDS + w * WindowEntry::WORDS
+        Header::WORDS
+            + m * Channel::WORDS
+            + Reacquisition::WORDS
+            + Cursor::WORDS
+            + w * WindowEntry::WORDS
+            + Adaptation::WORDS
+            + Jumps::WORDS
+            + ReviewHeader::WORDS
+            + m * ReviewRow::WORDS
+    }
+
+    /// The review's header as saved: the belief only while a jump awaits review.
+    fn review_header(&self) -> ReviewHeader {
+        let belief = &self.review.hypothesis;
+        let active = self.review.active;
+        ReviewHeader {
+            active,
+            kind: if active { FilterKind::ALL.iter().position(|k| *k == belief.kind).unwrap_or(0) } else { 0 },
+            time: if active { belief.time } else { 0.0 },
+            inputs: if active { belief.input.len() } else { 0 },
+            states: if active { belief.mean.len() } else { 0 },
+        }
     }
 
     /// What the supervisor remembers between samples, as words (see the
@@ -210,6 +263,19 @@ impl Supervisor {
         cursor.save(out);
         for entry in entries {
             entry.save(out);
+        }
+        self.adaptation.save(out);
+        self.jumps.save(out);
+        let review = self.review_header();
+        review.save(out);
+        for &explained in &self.review.explained {
+            ReviewRow { explained }.save(out);
+        }
+        if review.active {
+            let belief = &self.review.hypothesis;
+            for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
+                out.push(v.to_bits());
+            }
         }
     }
 
@@ -242,9 +308,26 @@ impl Supervisor {
         if header.window != w as u64 {
             return Err(invalid(format!("a window of {} samples, this supervisor's settings have {w}", header.window)));
         }
-        let expected = self.memory_words();
+        let fixed = self.memory_words();
+        if words.len() < fixed {
+            return Err(invalid(format!("{} words, its header says {fixed}", words.len())));
+        }
+        let review_at = fixed - ReviewHeader::WORDS - m * ReviewRow::WORDS;
+        let review = ReviewHeader::load(&words[review_at..review_at + ReviewHeader::WORDS], "the review")?;
+        let belief_words = review.inputs + review.states + review.states * review.states;
+        let expected = fixed + belief_words;
         if words.len() != expected {
             return Err(invalid(format!("{} words, its header says {expected}", words.len())));
+        }
+        let Some(&kind) = FilterKind::ALL.get(review.kind) else {
+            return Err(invalid(format!(
+                "the review's filter kind {} is none of the {}",
+                review.kind,
+                FilterKind::ALL.len()
+            )));
+        };
+        if !review.active && belief_words != 0 {
+            return Err(invalid("a belief is saved with no jump under review".into()));
         }
 
         let (channel_words, at) = records::<Channel>(words, Header::WORDS, m);
@@ -269,7 +352,7 @@ impl Supervisor {
                 cursor.next, cursor.filled
             )));
         }
-        let (entry_words, _) = records::<WindowEntry>(words, at, w);
+        let (entry_words, at) = records::<WindowEntry>(words, at, w);
         let mut entries = Vec::with_capacity(w);
         for (k, words) in entry_words.chunks_exact(WindowEntry::WORDS).enumerate() {
             let entry = WindowEntry::load(words, &format!("window entry {k}"))?;
@@ -281,8 +364,40 @@ impl Supervisor {
             }
             entries.push(entry);
         }
+        let (adaptation_words, at) = records::<Adaptation>(words, at, 1);
+        let adaptation = Adaptation::load(adaptation_words, "the adaptation")?;
+        if !adaptation.fits(&self.settings) {
+            return Err(invalid(format!(
+                "the process-noise scale e^{} is outside [{}, {}]",
+                adaptation.log_scale, self.settings.min_process_noise_scale, self.settings.max_process_noise_scale
+            )));
+        }
+        let (jump_words, at) = records::<Jumps>(words, at, 1);
+        let jumps = Jumps::load(jump_words, "the jump counts")?;
+        let (row_words, at) = records::<ReviewRow>(words, at + ReviewHeader::WORDS, m);
+        let mut explained = Vec::with_capacity(m);
+        for (c, words) in row_words.chunks_exact(ReviewRow::WORDS).enumerate() {
+            explained.push(ReviewRow::load(words, &format!("review row {c}"))?.explained);
+        }
+        let floats: Vec<f64> = words[at..].iter().map(|w| f64::from_bits(*w)).collect();
+        let (input, rest) = floats.split_at(review.inputs);
+        let (mean, covariance) = rest.split_at(review.states);
 
         self.channels = channels;
+        self.adaptation = adaptation;
+        self.jumps = jumps;
+        self.review.active = review.active;
+        self.review.explained = explained;
+        if review.active {
+            let belief = &mut self.review.hypothesis;
+            (belief.kind, belief.time) = (kind, review.time);
+            for (to, from) in
+                [(&mut belief.input, input), (&mut belief.mean, mean), (&mut belief.covariance, covariance)]
+            {
+                to.clear();
+                to.extend_from_slice(from);
+            }
+        }
         self.reacquisition = reacquisition;
         self.window.restore(cursor, &entries);
         Ok(())

@@ -18,6 +18,11 @@
 //!   state instead of inflating every state.
 //! * **Consistency** (`consistency.rs`): the clipped normalised innovations
 //!   over a window, against their χ² bound: is `P` still honest?
+//! * **Jumps** (`jump.rs`): a failing row that a jump of the unknown inputs
+//!   explains is model mismatch, not a fault: it is used, from `P + c·Q`, and
+//!   the next sample reviews whether it was a spike after all.
+//! * **Adaptation** (`adaptation.rs`): a bounded, forgetting scale on `Q`
+//!   learnt from the normalised innovations of the rows used.
 //!
 //! The gate and the bookkeeping are apart: [`Supervisor::gate`] makes the
 //! update on a filter and keeps the outcome pending, [`Supervisor::commit`]
@@ -26,9 +31,11 @@
 //! counted is the supervisor's memory, which [`Supervisor::save`] writes as
 //! self-describing words (`memory.rs`).
 
+mod adaptation;
 mod channel;
 mod consistency;
 mod gate;
+mod jump;
 mod memory;
 mod outcome;
 mod reacquisition;
@@ -40,8 +47,10 @@ pub use outcome::{FaultChange, Outcome, RowOutcome};
 pub use settings::SupervisorSettings;
 pub use steps::QuantizedSteps;
 
+use adaptation::Adaptation;
 use consistency::{ConsistencyWindow, WindowEntry};
 use gate::{Thresholds, Workspace};
+use jump::{Jumps, Review};
 use reacquisition::Reacquisition;
 
 use crate::error::FilterError;
@@ -57,6 +66,9 @@ pub struct Supervisor {
     channels: Vec<Channel>,
     reacquisition: Reacquisition,
     window: ConsistencyWindow,
+    adaptation: Adaptation,
+    jumps: Jumps,
+    review: Review,
     // The pending sample.
     pending: Outcome,
     /// The measurement of the pending outcome, as offered.
@@ -75,6 +87,9 @@ impl Supervisor {
             channels: vec![Channel::new(); m],
             reacquisition: Reacquisition::new(),
             window: ConsistencyWindow::new(&settings, m),
+            adaptation: Adaptation::new(),
+            jumps: Jumps::default(),
+            review: Review::new(m),
             pending: Outcome::none(m),
             z_offered: vec![f64::NAN; m],
             work: Workspace::new(m),
@@ -101,6 +116,22 @@ impl Supervisor {
     /// Measurement rows rejected by the gate so far, over all channels.
     pub fn rejected(&self) -> u64 {
         self.channels.iter().map(|c| c.rejected).sum()
+    }
+
+    /// The scale on the `Q` given that the adaptation has learnt (1 when it is
+    /// off); the filter predicts with it from the next sample on.
+    pub fn process_noise_scale(&self) -> f64 {
+        self.adaptation.scale()
+    }
+
+    /// Jumps of the unknown inputs taken so far (`jump.rs`).
+    pub fn jumps(&self) -> u64 {
+        self.jumps.taken
+    }
+
+    /// Jumps that their review found to be gross errors.
+    pub fn retracted_jumps(&self) -> u64 {
+        self.jumps.retracted
     }
 
     /// Re-acquisitions so far.
@@ -178,5 +209,22 @@ impl Supervisor {
         }
         self.reacquisition.count(outcome, self.settings.max_inflation);
         self.window.push(WindowEntry { clipped_ratios: outcome.clipped_ratios, rows: outcome.gated_rows });
+        if outcome.retracted {
+            // The spike the review found counts as rejected, one sample late.
+            for (channel, _) in self.channels.iter_mut().zip(&self.review.explained).filter(|(_, e)| **e) {
+                channel.rejected = channel.rejected.saturating_add(1);
+            }
+            self.jumps.retracted = self.jumps.retracted.saturating_add(1);
+        }
+        if outcome.reviewed {
+            self.review.active = false;
+        }
+        if outcome.jump > 0.0 {
+            self.review.active = true;
+            std::mem::swap(&mut self.review.hypothesis, &mut self.work.hypothesis);
+            self.review.explained.copy_from_slice(&outcome.explained);
+            self.jumps.taken = self.jumps.taken.saturating_add(1);
+        }
+        self.adaptation.learn(outcome, &self.settings);
     }
 }

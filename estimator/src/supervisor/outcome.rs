@@ -37,6 +37,22 @@ pub struct Outcome {
     pub gated_rows: usize,
     /// Per row: the bias step taken (0 for none; see [`QuantizedSteps`](crate::QuantizedSteps)).
     pub steps: Vec<f64>,
+    /// The factor `c` of the jump taken (`P + c·Q`, see `jump.rs`), 0 for none.
+    pub jump: f64,
+    /// Per row: its failure was explained by that jump and it was used.
+    pub explained: Vec<bool>,
+    /// The jump of the previous sample was reviewed at this one.
+    pub reviewed: bool,
+    /// The review found it a gross error: its explained rows count as rejected
+    /// at the commit, and this update started from the belief without them.
+    pub retracted: bool,
+    /// The first pass's normalised innovations of the rows finally used, each
+    /// clipped (the adaptation's evidence, `adaptation.rs`), summed.
+    pub adaptation_ratios: f64,
+    /// Their shares `(Sᵢᵢ − rᵢ)/Sᵢᵢ` of the innovation variance that `P` makes, summed.
+    pub adaptation_share: f64,
+    /// How many rows those sums have.
+    pub adaptation_rows: usize,
     /// Per row: the multiple its rejected innovations sit at and how many in
     /// a row, for the channel to remember at the commit.
     pub(super) watch: Vec<(i64, u32)>,
@@ -55,6 +71,13 @@ impl Outcome {
             clipped_ratios: 0.0,
             gated_rows: 0,
             steps: vec![0.0; m],
+            jump: 0.0,
+            explained: vec![false; m],
+            reviewed: false,
+            retracted: false,
+            adaptation_ratios: 0.0,
+            adaptation_share: 0.0,
+            adaptation_rows: 0,
             watch: vec![(0, 0); m],
         }
     }

@@ -32,6 +32,19 @@ pub struct SupervisorSettings {
     /// re-acquisitions (S1's load step and S5's change of every coefficient
     /// each take one).
     pub max_inflation: f64,
+    /// A failing row that a jump of the unknown inputs explains, and the
+    /// other rows do not contradict, is used from `P + c·Q` instead of being
+    /// rejected, and reviewed at the next sample (`jump.rs`). Default off
+    /// (until the studies' tables are made with it).
+    pub jumps: bool,
+    /// Samples over which the process-noise scale adapts (`adaptation.rs`):
+    /// its gain per sample is the inverse. 0 turns the adaptation off (the
+    /// scale stays 1). Default 0 (off, until the studies' tables are made with it).
+    pub adaptation_window: usize,
+    /// The least the adaptation may scale the `Q` given by. Default 1e-4.
+    pub min_process_noise_scale: f64,
+    /// The most the adaptation may scale the `Q` given by. Default 1e4.
+    pub max_process_noise_scale: f64,
 }
 
 impl Default for SupervisorSettings {
@@ -46,6 +59,10 @@ impl Default for SupervisorSettings {
             consistency_probability: 1e-6,
             consistency_margin: 3.0,
             max_inflation: 1e8,
+            jumps: false,
+            adaptation_window: 0,
+            min_process_noise_scale: 1e-4,
+            max_process_noise_scale: 1e4,
         }
     }
 }
@@ -72,6 +89,18 @@ impl SupervisorSettings {
         if !(self.max_inflation >= 1.0 && self.max_inflation.is_finite()) {
             return bad(format!("max_inflation must be finite and at least 1, got {}", self.max_inflation));
         }
+        let (low, high) = (self.min_process_noise_scale, self.max_process_noise_scale);
+        if !(low > 0.0 && low <= 1.0 && high >= 1.0 && high.is_finite()) {
+            return bad(format!(
+                "the process-noise scale bounds must satisfy 0 < min ≤ 1 ≤ max < ∞, got [{low}, {high}]"
+            ));
+        }
         Ok(())
+    }
+
+    /// These settings with jumps taken and the process noise adapted over
+    /// `window` samples.
+    pub fn adaptive(self, window: usize) -> Self {
+        Self { jumps: true, adaptation_window: window, ..self }
     }
 }

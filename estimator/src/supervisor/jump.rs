@@ -1,0 +1,268 @@
+//! Model mismatch or sensor fault: the jump hypothesis, and its review one
+//! sample later.
+//!
+//! A row that fails the gate is either a gross error of its sensor or the
+//! sign that the state moved more than `Q` allows (a load step, a weld, a
+//! spectrum wider than the tuning). The two are told apart by what the
+//! unknown inputs can do:
+//!
+//! * **Explained by a jump.** Adding process noise `c·Q` to `P` raises the
+//!   innovation variance of row `i` by `c·Gᵢ`, `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found from one
+//!   probe update with `P + Q`. A failing row is explained when some
+//!   `c ≤ implausible_sigmas²` brings its innovation to one σ; a row no jump
+//!   of the unknown inputs reaches (`Gᵢ ≈ 0`: in S1 the acceleration of the
+//!   mass the load does not act on) is a fault, and rejected.
+//! * **Not contradicted by the other rows.** The row is then predicted from
+//!   the update with the other rows under `P + c·Q` (leave one out): where
+//!   they see the same directions of the state, they pin what it can be, and
+//!   a row that still fails disagrees with them: a fault. The update is
+//!   then made from `P + c·Q` with the largest such `c` and every row not
+//!   rejected: the change is followed at once, its σ widened as it must be.
+//!   The rows that fail even so are faults.
+//! * **Reviewed at the next sample.** Where only the jumping directions see a
+//!   row (S1's load acts on one accelerometer alone), one sample cannot tell
+//!   a spike from a step. The belief without the explained rows (the fault
+//!   hypothesis) is kept; at the next sample both beliefs are predicted and
+//!   the one whose innovation is the likelier for the new measurement is
+//!   followed. A step persists and keeps the jump; a spike is undone: the
+//!   next update starts from the fault hypothesis, and the spike's rows
+//!   count as rejected, one sample late.
+//!
+//! A jump never re-acquires (it does not inflate every direction of `P`), so
+//! it spends nothing of the inflation budget.
+
+use super::outcome::RowOutcome;
+use super::Supervisor;
+use crate::error::FilterError;
+use crate::filter::{FilterKind, Snapshot, StateEstimator};
+
+/// The jump taken at the last committed sample, under review at the next.
+#[derive(Debug, Clone)]
+pub(super) struct Review {
+    /// A jump awaits its review.
+    pub active: bool,
+    /// The rows its failure explained.
+    pub explained: Vec<bool>,
+    /// The belief after the jump's sample without the explained rows.
+    pub hypothesis: Snapshot,
+}
+
+impl Review {
+    /// None pending, for `m` rows.
+    pub fn new(m: usize) -> Self {
+        Self { active: false, explained: vec![false; m], hypothesis: empty_snapshot() }
+    }
+}
+
+/// The counts of jumps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(super) struct Jumps {
+    /// Jumps taken so far.
+    pub taken: u64,
+    /// Jumps a review found to be gross errors.
+    pub retracted: u64,
+}
+
+/// A snapshot with no buffers yet.
+pub(super) fn empty_snapshot() -> Snapshot {
+    Snapshot { kind: FilterKind::Ckf, time: 0.0, input: Vec::new(), mean: Vec::new(), covariance: Vec::new() }
+}
+
+impl Supervisor {
+    /// Tries the jump hypothesis on a failing first pass (`before` restored
+    /// nowhere yet). Returns whether a jump was taken; when not, the filter
+    /// holds the belief before the gate and nothing of the outcome changed.
+    pub(super) fn try_jump(
+        &mut self,
+        filter: &mut dyn StateEstimator,
+        failing: impl Fn(usize, f64) -> bool,
+    ) -> Result<bool, FilterError> {
+        let limit = self.settings.implausible_sigmas * self.settings.implausible_sigmas;
+        // The probe: G from the innovation variances with P + Q.
+        filter.restore(&self.work.before)?;
+        let probed = filter.add_process_noise(1.0).and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
+        if probed.is_err() {
+            filter.restore(&self.work.before)?;
+            return Ok(false);
+        }
+        let mut factor = 0.0_f64;
+        let mut explained_any = false;
+        {
+            let innovation = filter.innovation();
+            let work = &mut self.work;
+            work.explained.fill(false);
+            work.unexplained.fill(false);
+            for &r in &work.rows {
+                if !failing(r, work.ratios[r]) {
+                    continue;
+                }
+                let g = innovation.covariance()[(r, r)] - work.variances[r];
+                work.gains[r] = g;
+                let need = (innovation_squared(work, r) - work.variances[r]) / g;
+                if g > 0.0 && need.is_finite() && need <= limit {
+                    work.explained[r] = true;
+                    explained_any = true;
+                    factor = factor.max(need);
+                } else {
+                    work.unexplained[r] = true;
+                }
+            }
+        }
+        // The other rows may contradict it: row r, predicted from the update
+        // with the rest under P + c·Q, still fails (leave one out).
+        if explained_any && self.work.rows.len() > 1 {
+            factor = self.contradicted(filter, factor)?;
+            explained_any = self.work.explained.iter().any(|&e| e);
+        }
+        if !explained_any {
+            filter.restore(&self.work.before)?;
+            return Ok(false);
+        }
+        // The fault hypothesis, kept for the review: the update without the failing rows.
+        for r in 0..self.work.z_gated.len() {
+            let out = self.work.explained[r] || self.work.unexplained[r];
+            self.work.z_hypothesis[r] = if out { f64::NAN } else { self.work.z_gated[r] };
+        }
+        filter.restore(&self.work.before)?;
+        if filter.update(&self.work.z_hypothesis).is_err() {
+            filter.restore(&self.work.before)?;
+            return Ok(false);
+        }
+        filter.snapshot_into(&mut self.work.hypothesis);
+        // The jump: the unexplained rows rejected, the rest used from P + c·Q;
+        // a row failing even so is a fault too, and the update is made again without it.
+        for r in 0..self.work.z_gated.len() {
+            if self.work.unexplained[r] {
+                self.work.z_gated[r] = f64::NAN;
+            }
+        }
+        for _ in 0..2 {
+            filter.restore(&self.work.before)?;
+            let jumped = filter.add_process_noise(factor).and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
+            if jumped.is_err() {
+                filter.restore(&self.work.before)?;
+                self.restore_gated();
+                return Ok(false);
+            }
+            let threshold = self.thresholds.row;
+            let innovation = filter.innovation();
+            let mut again = false;
+            for &r in innovation.rows() {
+                if fails(innovation, r, threshold) {
+                    self.work.z_gated[r] = f64::NAN;
+                    self.work.explained[r] = false;
+                    self.work.unexplained[r] = true;
+                    again = true;
+                }
+            }
+            if !again {
+                break;
+            }
+        }
+        let innovation = filter.innovation();
+        let threshold = self.thresholds.row;
+        if innovation.rows().iter().any(|&r| fails(innovation, r, threshold)) || !self.work.explained.contains(&true) {
+            // Nothing the jump explains is left: it is no jump.
+            filter.restore(&self.work.before)?;
+            self.restore_gated();
+            return Ok(false);
+        }
+        (self.pending.nis, self.pending.dof) = (innovation.nis(), innovation.rows_used());
+        for r in 0..self.pending.rows.len() {
+            if self.work.unexplained[r] {
+                self.pending.rows[r] = RowOutcome::Rejected;
+            }
+            self.pending.explained[r] = self.work.explained[r];
+        }
+        self.pending.jump = factor;
+        Ok(true)
+    }
+
+    /// Moves each explained row that the other rows contradict (see
+    /// [`Supervisor::try_jump`]) to the unexplained ones; returns the factor
+    /// the remaining explained rows need. `z_hypothesis` is scratch here.
+    fn contradicted(&mut self, filter: &mut dyn StateEstimator, factor: f64) -> Result<f64, FilterError> {
+        let m = self.work.z_gated.len();
+        let mut needed = 0.0_f64;
+        for r in 0..m {
+            if !self.work.explained[r] {
+                continue;
+            }
+            for j in 0..m {
+                self.work.z_hypothesis[j] =
+                    if j == r || self.work.unexplained[j] { f64::NAN } else { self.work.z_gated[j] };
+            }
+            filter.restore(&self.work.before)?;
+            let rest =
+                filter.add_process_noise(factor).and_then(|()| filter.update(&self.work.z_hypothesis).map(|_| ()));
+            self.work.z_hypothesis.fill(f64::NAN);
+            self.work.z_hypothesis[r] = self.work.z_gated[r];
+            let alone = rest.and_then(|()| {
+                filter.update(&self.work.z_hypothesis).map(|i| i.residual()[r].powi(2) / i.covariance()[(r, r)])
+            });
+            match alone {
+                Ok(ratio) if ratio <= self.thresholds.row => needed = needed.max(self.need(r)),
+                _ => {
+                    self.work.explained[r] = false;
+                    self.work.unexplained[r] = true;
+                }
+            }
+        }
+        Ok(needed)
+    }
+
+    /// The factor `c` that brings row `r`'s innovation to one σ (`work.gains` from the probe).
+    fn need(&self, r: usize) -> f64 {
+        (innovation_squared(&self.work, r) - self.work.variances[r]) / self.work.gains[r]
+    }
+
+    /// Puts back the rows the jump left out, when it is not taken.
+    fn restore_gated(&mut self) {
+        for r in 0..self.work.z_gated.len() {
+            if self.work.unexplained[r] {
+                self.work.z_gated[r] = self.z_offered[r];
+            }
+        }
+        self.work.explained.fill(false);
+        self.work.unexplained.fill(false);
+    }
+
+    /// Reviews the jump of the last sample against the measurement offered
+    /// (`before` holds the filter's prediction): predicts the fault
+    /// hypothesis to this sample and keeps the belief whose innovation is the
+    /// likelier, as the new `before`. Leaves the filter at `before`.
+    pub(super) fn review(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        if !self.review.active {
+            return Ok(());
+        }
+        self.pending.reviewed = true;
+        let jumped = filter.update(&self.work.z_gated).map(|i| (i.log_likelihood(), i.rows_used()));
+        let hypothesis = &self.review.hypothesis;
+        let dt = self.work.before.time - hypothesis.time;
+        let before = &self.work.before;
+        let faulted = filter
+            .restore(hypothesis)
+            .and_then(|()| if dt > 0.0 { filter.predict(&hypothesis.input, dt) } else { Ok(()) })
+            .and_then(|()| filter.hold_input(&before.input))
+            .map(|()| filter.snapshot_into(&mut self.work.alternative))
+            .and_then(|()| filter.update(&self.work.z_gated).map(|i| (i.log_likelihood(), i.rows_used())));
+        if let (Ok((jumped, rows)), Ok((faulted, same_rows))) = (jumped, faulted) {
+            if rows > 0 && rows == same_rows && faulted > jumped {
+                std::mem::swap(&mut self.work.before, &mut self.work.alternative);
+                self.pending.retracted = true;
+            }
+        }
+        filter.restore(&self.work.before)
+    }
+}
+
+/// Row `r` of an update fails the row test (a NaN ratio fails too).
+fn fails(innovation: &crate::filter::Innovation, r: usize, threshold: f64) -> bool {
+    let ratio = innovation.residual()[r].powi(2) / innovation.covariance()[(r, r)];
+    ratio > threshold || ratio.is_nan()
+}
+
+/// `νᵣ²` of the pass the ratios were taken from.
+fn innovation_squared(work: &super::gate::Workspace, r: usize) -> f64 {
+    work.ratios[r] * work.variances[r]
+}
