@@ -5,20 +5,33 @@
 //! **The truth's vehicle is not the catalogue's.** The truth runs the car as it is on the
 //! day: laden (2 t of passengers on the car body), its primary springs 5 % stiffer than the
 //! catalogue (aged rubber) and its dampers' blow-off slope 10 % higher ([`as_built`]).
+//!
+//! ## Unseen tracks
+//!
+//! The random case draws its track from [`Settings::spectrum`], FRA class 5 by default. A
+//! [`Scenario`] names a case together with its track: the paper's three (`random`,
+//! `corrugation`, `weld`) and the random case on the three spectra the estimator was not
+//! tuned on ([`Scenario::UNSEEN`]): `random/fra6`, `random/german-low`,
+//! `random/german-high` (the spectra and their sources are in
+//! [`irregularity`](super::irregularity)). `"random/german-high".parse::<Scenario>()`,
+//! then [`Scenario::settings`] on the study's settings, or [`Scenario::simulate`]. Speed
+//! and rate are the settings' as for every case: 40 to 160 km/h, 200 Hz or 1 kHz.
+
+use std::fmt;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::daq::AntiAlias;
-use super::irregularity::{FraSpectrum, Irregularity, RandomProfile};
+use super::irregularity::{Irregularity, RandomProfile, TrackSpectrum};
 use super::parameters::{Track, Vehicle};
 use super::plant::{Settings as PlantSettings, Simulation};
 
 /// The excitations of the paper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Case {
-    /// A random track (FRA class 5).
+    /// A random track, of [`Settings::spectrum`] (FRA class 5 by default).
     Random,
     /// A corrugation 0.1 mm / 0.5 m.
     Corrugation,
@@ -55,6 +68,83 @@ impl Case {
     }
 }
 
+/// A case with the track it runs on: the name of a run of the study.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scenario {
+    /// The excitation.
+    pub case: Case,
+    /// The random track's spectrum (only the random case draws a track).
+    pub spectrum: TrackSpectrum,
+}
+
+impl Scenario {
+    /// The paper's three cases, each on the default track.
+    pub const PAPER: [Scenario; 3] = [
+        Scenario { case: Case::Random, spectrum: TrackSpectrum::FRA_5 },
+        Scenario { case: Case::Corrugation, spectrum: TrackSpectrum::FRA_5 },
+        Scenario { case: Case::Weld, spectrum: TrackSpectrum::FRA_5 },
+    ];
+
+    /// The random case on the tracks the estimator was not tuned on.
+    pub const UNSEEN: [Scenario; 3] = [
+        Scenario { case: Case::Random, spectrum: TrackSpectrum::FRA_6 },
+        Scenario { case: Case::Random, spectrum: TrackSpectrum::GERMAN_LOW },
+        Scenario { case: Case::Random, spectrum: TrackSpectrum::GERMAN_HIGH },
+    ];
+
+    /// Every named scenario: the paper's, then the unseen.
+    pub fn every() -> impl Iterator<Item = Scenario> {
+        Scenario::PAPER.into_iter().chain(Scenario::UNSEEN)
+    }
+
+    /// Whether the paper published figures for it: its three cases, the random one on FRA
+    /// class 5 (the corrugation and the weld draw no track).
+    pub fn is_published(&self) -> bool {
+        self.case != Case::Random || self.spectrum == TrackSpectrum::FRA_5
+    }
+
+    /// `base` with this scenario's track.
+    pub fn settings(&self, base: &Settings) -> Settings {
+        Settings { spectrum: self.spectrum, ..base.clone() }
+    }
+
+    /// Runs it: [`simulate`] of its case on `base` with its track.
+    pub fn simulate(&self, base: &Settings) -> Truth {
+        simulate(self.case, &self.settings(base))
+    }
+}
+
+impl fmt::Display for Scenario {
+    /// `random/<spectrum>` for the random case off FRA class 5, otherwise the case's name.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.case == Case::Random && self.spectrum != TrackSpectrum::FRA_5 {
+            write!(f, "random/{}", self.spectrum)
+        } else {
+            f.write_str(self.case.name())
+        }
+    }
+}
+
+/// Parses `random`, `corrugation`, `weld` (on FRA class 5) and `random/<spectrum>` with a
+/// spectrum of [`TrackSpectrum::name`] (`random/fra5` is `random`).
+impl std::str::FromStr for Scenario {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let unknown = || {
+            let names: Vec<String> = Scenario::every().map(|c| c.to_string()).collect();
+            format!("unknown S2 case '{s}'; expected one of {}", names.join(", "))
+        };
+        let (name, spectrum) = match s.split_once('/') {
+            Some(("random", spectrum)) => ("random", spectrum.parse::<TrackSpectrum>().map_err(|_| unknown())?),
+            Some(_) => return Err(unknown()),
+            None => (s, TrackSpectrum::FRA_5),
+        };
+        let case = Case::ALL.into_iter().find(|c| c.name() == name).ok_or_else(unknown)?;
+        Ok(Scenario { case, spectrum })
+    }
+}
+
 /// How to run the study.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -69,8 +159,8 @@ pub struct Settings {
     pub seed: u64,
     /// Sensor noise: white, this fraction of each channel's RMS.
     pub noise_fraction: f64,
-    /// The random track's spectrum.
-    pub spectrum: FraSpectrum,
+    /// The random track's spectrum; FRA class 5.
+    pub spectrum: TrackSpectrum,
 }
 
 impl Default for Settings {
@@ -81,7 +171,7 @@ impl Default for Settings {
             duration: 4.0,
             seed: 1,
             noise_fraction: 0.02,
-            spectrum: FraSpectrum::CLASS_5,
+            spectrum: TrackSpectrum::FRA_5,
         }
     }
 }

@@ -14,6 +14,19 @@
 //! Faults do not overlap: a new one starts only after the telegram that ends the last
 //! burst or spike has come through clean, so that each shows exactly as its record says
 //! (a spike just before a dropout would otherwise be held through it).
+//!
+//! ## Fault profiles
+//!
+//! [`Faults::default`] is the study's channel, the one the detectors were tuned on. Any
+//! other rate is [`Faults::scaled`] (the four rates times a factor, sizes, offsets and noise
+//! kept); [`FaultProfile`] names three, parsed from `default`, `none` and `frequent`:
+//! `frequent` ([`Faults::frequent`]) is the default with its four rates ten times higher
+//! ([`Faults::FREQUENT_FACTOR`]): dropouts, resends and spikes 1e-2 per telegram, slot
+//! slips 1e-3 per moving telegram, a fault starting every 32 telegrams (0.65 s) or so on
+//! each channel, against one in 320 by default. The rates are ours `[est]`, as the
+//! default's are. Each channel's noise stream does not depend on the profile, and the
+//! fault stream is the same seed's, so a frequent run differs from the default run of the
+//! same seed by its faults alone.
 
 use std::ops::{Range, RangeInclusive};
 
@@ -57,6 +70,58 @@ impl FaultKind {
             FaultKind::SlotSlip { .. } => "slot slip",
             FaultKind::Offset { .. } => "offset",
         }
+    }
+}
+
+/// A named fault model (the module documentation's profiles).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FaultProfile {
+    /// [`Faults::default`], the study's channel.
+    Default,
+    /// [`Faults::none`], noise alone.
+    None,
+    /// [`Faults::frequent`], the default's rates ten times higher.
+    Frequent,
+}
+
+impl FaultProfile {
+    /// The three.
+    pub const ALL: [FaultProfile; 3] = [FaultProfile::Default, FaultProfile::None, FaultProfile::Frequent];
+
+    /// Its name: `default`, `none`, `frequent`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            FaultProfile::Default => "default",
+            FaultProfile::None => "none",
+            FaultProfile::Frequent => "frequent",
+        }
+    }
+
+    /// Its fault model.
+    pub fn faults(&self) -> Faults {
+        match self {
+            FaultProfile::Default => Faults::default(),
+            FaultProfile::None => Faults::none(),
+            FaultProfile::Frequent => Faults::frequent(),
+        }
+    }
+}
+
+impl std::fmt::Display for FaultProfile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Parses a name of [`FaultProfile::name`].
+impl std::str::FromStr for FaultProfile {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        FaultProfile::ALL.into_iter().find(|p| p.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = FaultProfile::ALL.iter().map(FaultProfile::name).collect();
+            format!("unknown fault profile '{s}'; expected one of {}", names.join(", "))
+        })
     }
 }
 
@@ -128,6 +193,15 @@ impl Default for Faults {
 }
 
 impl Faults {
+    /// How much more often faults come in [`Faults::frequent`]: ten times.
+    pub const FREQUENT_FACTOR: f64 = 10.0;
+
+    /// The default channel with its four fault rates [`Faults::FREQUENT_FACTOR`] times
+    /// higher (the module documentation's profile `frequent`).
+    pub fn frequent() -> Self {
+        Self::default().scaled(Self::FREQUENT_FACTOR)
+    }
+
     /// No faults, the default noise only.
     pub fn none() -> Self {
         Self { offset: 0.0..=0.0, ..Self::default().scaled(0.0) }

@@ -5,7 +5,8 @@
 //! - The motions, exact at any instant: the paper's test run and a jerk-limited run to
 //!   500 km/h ([`profile`]).
 //! - The channels, head and tail × left and right, recording a run ([`channels`]) with
-//!   their noise and faults ([`faults`]); the recording, its raw speeds and its true
+//!   their noise and faults ([`faults`]: the default fault rates, and named profiles
+//!   such as `frequent` at ten times them); the recording, its raw speeds and its true
 //!   speeds ([`recording`]).
 
 pub mod channels;

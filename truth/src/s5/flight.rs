@@ -1,5 +1,6 @@
 //! S5's flight as the paper flies it: the missile of the study, the standard manoeuvre,
-//! sampled every 5 ms with each sensor's noise.
+//! sampled every 5 ms with each sensor's noise; or another manoeuvre by name
+//! ([`simulate_named`], [`flight_with`]: `roll-turn`, one the estimators were not tuned on).
 
 use estimator::models::Airframe;
 use rand::SeedableRng;
@@ -47,6 +48,18 @@ pub struct Truth {
 /// The missile of the study flying the standard manoeuvre.
 pub fn flight() -> Flight {
     Flight { airframe: Airframe::tactical_missile(), coefficients: [BEFORE, AFTER], manoeuvre: Manoeuvre::standard() }
+}
+
+/// The missile of the study flying `manoeuvre` (e.g. [`Manoeuvre::roll_turn`], or one of
+/// [`Manoeuvre::named`]), its coefficients changing at the manoeuvre's `change_at`.
+pub fn flight_with(manoeuvre: Manoeuvre) -> Flight {
+    Flight { manoeuvre, ..flight() }
+}
+
+/// Flies the study's missile through the manoeuvre of that name from the study's start
+/// and samples it: [`simulate`] for `standard`.
+pub fn simulate_named(name: &str, settings: &Settings) -> Result<Truth, String> {
+    Ok(simulate_flight(&flight_with(Manoeuvre::named(name)?), settings))
 }
 
 /// Flies the study's flight and samples it.
