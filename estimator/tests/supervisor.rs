@@ -3,7 +3,10 @@
 //! fires on healthy data, a rejected row is exactly a missing one, stuck and
 //! persistently failing channels are flagged and cleared, a true jump is
 //! re-acquired, an inconsistent filter is reported, and a gate that is not
-//! committed changes nothing. Every filter kind.
+//! committed changes nothing. Every filter kind. Where a test is about the
+//! gate's rejections and re-acquisitions themselves, the supervisor is the
+//! `fixed` one (no jumps, `Q` as given): `jumps_and_adaptation.rs` specifies
+//! what the jumps and the adaptation change.
 
 mod common;
 
@@ -25,6 +28,11 @@ fn overconfident(kind: FilterKind, case: &LinearCase, q_scale: f64, r_scale: f64
 
 fn supervisor() -> Supervisor {
     Supervisor::new(SupervisorSettings::default(), 3).unwrap()
+}
+
+/// The supervisor without jumps or adaptation: every failing row rejected.
+fn fixed_supervisor() -> Supervisor {
+    Supervisor::new(SupervisorSettings::default().fixed(), 3).unwrap()
 }
 
 /// Predict, gate, commit: one sample; returns the outcome's rows.
@@ -63,7 +71,7 @@ fn the_gate_never_fires_on_healthy_data_and_the_filter_stays_consistent() {
 fn a_rejected_row_is_exactly_a_missing_one() {
     let case = linear_case(300, 12);
     for kind in FilterKind::ALL {
-        let (mut gated, mut s) = (filter(kind, &case, 1.0), supervisor());
+        let (mut gated, mut s) = (filter(kind, &case, 1.0), fixed_supervisor());
         let mut plain = filter(kind, &case, 1.0);
         for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
             let mut spiked = z.clone();
@@ -133,7 +141,7 @@ fn a_true_jump_of_the_state_is_reacquired_and_followed() {
         }
     }
     for kind in FilterKind::ALL {
-        let (mut f, mut s) = (filter(kind, &case, 1.0), supervisor());
+        let (mut f, mut s) = (filter(kind, &case, 1.0), fixed_supervisor());
         let mut reacquired_at = None;
         let mut lost = 0;
         for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
@@ -168,9 +176,10 @@ fn re_acquisitions_stop_at_their_inflation_budget_when_the_sensors_are_far_noisi
     let case = linear_case(1_000, 19);
     let h = case.model.h().clone();
     for kind in FilterKind::ALL {
-        let (mut f, mut s) = (overconfident(kind, &case, 1e-6, 1e-6), supervisor());
+        let (mut f, mut s) = (overconfident(kind, &case, 1e-6, 1e-6), fixed_supervisor());
         let mut unbounded =
-            Supervisor::new(SupervisorSettings { max_inflation: 1e300, ..Default::default() }, 3).unwrap();
+            Supervisor::new(SupervisorSettings { max_inflation: 1e300, ..SupervisorSettings::default().fixed() }, 3)
+                .unwrap();
         let mut g = overconfident(kind, &case, 1e-6, 1e-6);
         let mut unbounded_failed = false;
         for (u, z) in case.inputs.iter().zip(&case.measurements) {

@@ -62,8 +62,11 @@ fn filter(kind: FilterKind, case: &LinearCase) -> Box<dyn StateEstimator> {
     build_filter(kind, case.model.clone(), noise, &case.prior, UnscentedParams::default()).unwrap()
 }
 
+/// The fixed supervisor (no jumps, `Q` as given): these memories hold
+/// rejections and re-acquisitions; `jumps_and_adaptation.rs` saves one with a
+/// jump under review and an adapted scale.
 fn settings(window: usize) -> SupervisorSettings {
-    SupervisorSettings { window, ..SupervisorSettings::default() }
+    SupervisorSettings { window, ..SupervisorSettings::default().fixed() }
 }
 
 /// A supervisor of 3 channels after 150 samples with spikes (rejections),

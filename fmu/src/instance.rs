@@ -287,6 +287,7 @@ impl Instance {
                 faulty: &faulty,
                 statuses: &statuses,
                 healthy: true,
+                process_noise_scale: 1.0,
             };
             write_outputs(&self.descriptor, &mut self.values, Some(&prior));
         }
@@ -513,6 +514,7 @@ fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&R
             (Role::Estimate(i), Some(r)) => *x = r.belief.mean()[i],
             (Role::EstimateStd(i), Some(r)) => *x = r.belief.variance(i).max(0.0).sqrt(),
             (Role::Nis, Some(r)) => *x = r.nis,
+            (Role::ProcessNoiseScale, Some(r)) => *x = r.process_noise_scale,
             (Role::SkippedMeasurements, Some(r)) => *x = r.skipped as f64,
             (Role::RejectedMeasurements, Some(r)) => *x = r.rejected as f64,
             (Role::ChannelFault(row), Some(r)) => *x = f64::from(u8::from(r.faulty[row])),
@@ -521,7 +523,7 @@ fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&R
             }
             (Role::FilterHealthy, Some(r)) => *x = f64::from(u8::from(r.healthy)),
             (Role::Derived(k), _) => *x = derived.get(k).copied().unwrap_or(f64::NAN),
-            (Role::Estimate(_) | Role::EstimateStd(_) | Role::Nis, None) => *x = f64::NAN,
+            (Role::Estimate(_) | Role::EstimateStd(_) | Role::Nis | Role::ProcessNoiseScale, None) => *x = f64::NAN,
             (Role::FilterHealthy, None) => *x = 0.0,
             _ => {}
         }
@@ -569,13 +571,20 @@ pub(crate) fn build_estimation(
         window: count("consistency_window")? as usize,
         consistency_margin: p.get("consistency_margin")?,
         max_inflation: p.get("max_inflation")?,
+        jumps: p.get("take_jumps")? != 0.0,
+        adaptation_window: count("adaptation_window")? as usize,
+        min_process_noise_scale: p.get("min_process_noise_scale")?,
+        max_process_noise_scale: p.get("max_process_noise_scale")?,
         ..SupervisorSettings::default()
     };
-    let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim()).map_err(|e| e.to_string())?;
+    let filter = build_filter(descriptor, values, start_time)?;
+    let n = filter.state_dim();
+    let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())
+        .and_then(|s| s.with_jump_states(n, descriptor.unknown_inputs))
+        .map_err(|e| e.to_string())?;
     if let Some(steps) = (descriptor.build_steps)(&p)? {
         supervisor = supervisor.with_steps(steps).map_err(|e| e.to_string())?;
     }
-    let filter = build_filter(descriptor, values, start_time)?;
     let reader = build_filter(descriptor, values, start_time)?;
     if filter.snapshot().input.len() != controls.len() {
         return Err(format!(

@@ -19,7 +19,9 @@
 //! version 6 has the supervisor memory's self-describing layout (a header,
 //! then named records); version 7 adds the input statuses (the outcome of
 //! each measurement row in the latest update, which the `<input>_status`
-//! outputs show and the supervisor's memory does not hold). The filter and
+//! outputs show and the supervisor's memory does not hold); version 8 carries
+//! the supervisor memory of layout 3 (the adapted scale on `Q` and the jump
+//! under review, with its two beliefs). The filter and
 //! its twin for reads are rebuilt from the parameter values and the belief
 //! restored from the snapshot; the outputs are computed afresh at the next
 //! read, from exactly that.
@@ -32,7 +34,7 @@ use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 7;
+const VERSION: u32 = 8;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.

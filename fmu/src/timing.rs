@@ -127,6 +127,8 @@ pub struct Reading<'a> {
     pub statuses: &'a [RowOutcome],
     /// The filter is consistent and not lost (`estimator::Supervisor::healthy`).
     pub healthy: bool,
+    /// The adapted scale on `Q` the belief was predicted with.
+    pub process_noise_scale: f64,
 }
 
 /// The running estimator of an instance: the filter on its grid, and a
@@ -407,7 +409,13 @@ impl Estimation {
         if self.at_current_sample(t) {
             match inputs {
                 Some((z, u)) if feedthrough => {
-                    // The update at t with the controls of t (rule 5).
+                    // The update at t with the controls of t (rule 5), with the Q
+                    // of a sample: a jump's review predicts over one.
+                    if self.reader_interval != self.sample_time {
+                        let noise = noise_over(self.sample_time)?;
+                        self.reader.set_noise(noise).map_err(|e| e.to_string())?;
+                        self.reader_interval = self.sample_time;
+                    }
                     self.load_reader(Some(u))?;
                     self.read_controls.copy_from_slice(u);
                     let nis = match self.supervised.preview(self.reader.as_mut(), z) {
@@ -422,6 +430,7 @@ impl Estimation {
                     }
                     let rejected = supervisor.rejected_with_pending();
                     let healthy = supervisor.healthy_with_pending();
+                    let process_noise_scale = supervisor.process_noise_scale();
                     Ok(Reading {
                         belief: self.reader.as_ref(),
                         nis,
@@ -430,6 +439,7 @@ impl Estimation {
                         faulty: &self.faulty,
                         statuses: &supervisor.pending().rows,
                         healthy,
+                        process_noise_scale,
                     })
                 }
                 _ => Ok(self.committed_reading(false)),
@@ -442,13 +452,14 @@ impl Estimation {
                     self.current_sample()
                 ));
             }
-            // The prediction keeps the controls in force at the current sample.
-            self.load_reader(None)?;
             if dt != self.reader_interval {
                 let noise = noise_over(dt)?;
                 self.reader.set_noise(noise).map_err(|e| e.to_string())?;
                 self.reader_interval = dt;
             }
+            // The prediction keeps the controls in force at the current sample
+            // (and the adapted scale on Q, which the reader takes here).
+            self.load_reader(None)?;
             self.reader
                 .predict(&self.sample_controls, dt)
                 .map_err(|e| format!("the prediction from {} s to {t} s failed: {e}", self.current_sample()))?;
@@ -476,6 +487,7 @@ impl Estimation {
             faulty: &self.faulty,
             statuses: &self.committed_statuses,
             healthy: supervisor.healthy(),
+            process_noise_scale: supervisor.process_noise_scale(),
         }
     }
 

@@ -69,6 +69,8 @@ pub enum Role {
     EstimateStd(usize),
     /// Output: normalised innovation squared of the last update.
     Nis,
+    /// Output: the adapted scale on the process noise `Q`.
+    ProcessNoiseScale,
     /// Output: measurement rows skipped so far (non-finite inputs).
     SkippedMeasurements,
     /// Output: measurement rows rejected by the gate so far.

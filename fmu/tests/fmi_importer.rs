@@ -475,7 +475,10 @@ fn s5_flight(s: &Setup, n: usize, dt: f64, seed: u64) -> (Vec<Vec<f64>>, Vec<Vec
 /// of 0.01·(i + 1) m/s²; every 97th sample of the second input is missing (NaN).
 /// The supervisor with its defaults.
 fn default_supervisor(s: &Setup) -> Supervisor {
-    Supervisor::new(SupervisorSettings::default(), s.inputs().len()).unwrap()
+    let n = s.reference_filter().state_dim();
+    Supervisor::new(SupervisorSettings::default(), s.inputs().len())
+        .and_then(|supervisor| supervisor.with_jump_states(n, s.descriptor.unknown_inputs))
+        .unwrap()
 }
 
 /// S4's lever parameters, in channel order.
@@ -515,14 +518,18 @@ fn s4_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
 /// S4's supervisor: resent telegrams stuck from the first repeat, slot slips as
 /// quantised steps of the offsets.
 fn s4_supervisor(s: &Setup) -> Supervisor {
-    let settings = SupervisorSettings { stuck_after: 2, ..SupervisorSettings::default() };
+    let settings = SupervisorSettings { stuck_after: 2, adaptation_window: 0, ..SupervisorSettings::default() };
     let steps = QuantizedSteps {
         quantum: s.get("slot_pitch"),
         after: 3,
         tolerance: s.get("slip_tolerance"),
         bias_states: PrwTrain { marker: true, ..PrwTrain::new([0.0; 4]) }.bias_states(),
     };
-    Supervisor::new(settings, 5).unwrap().with_steps(steps).unwrap()
+    let n = s.reference_filter().state_dim();
+    Supervisor::new(settings, 5)
+        .and_then(|supervisor| supervisor.with_steps(steps))
+        .and_then(|supervisor| supervisor.with_jump_states(n, s.descriptor.unknown_inputs))
+        .unwrap()
 }
 
 /// S4's telegrams: a train at 5 m/s from 0.3 m, the four channels at their levers with
@@ -713,6 +720,7 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
         nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
         let rows: Vec<i32> = supervisor.pending().rows.iter().map(|&row| estimators::status_value(row)).collect();
         supervisor.commit(|_| {});
+        reference.set_process_noise_scale(supervisor.process_noise_scale()).unwrap();
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
         // Each input's status is the supervisor's outcome of its row.
@@ -787,7 +795,7 @@ fn s5_outputs_equal_the_library_run_in_process() {
     let mut fmu = Fmu::new(&import, &setup, model);
     fmu.initialise(&setup, samples as f64 * dt);
     let mut reference = setup.reference_filter();
-    let mut supervisor = Supervisor::new(SupervisorSettings::default(), 12).unwrap();
+    let mut supervisor = default_supervisor(&setup);
     for k in 0..=samples {
         if k > 0 {
             reference.predict(&u[k - 1], dt).unwrap();
@@ -799,6 +807,7 @@ fn s5_outputs_equal_the_library_run_in_process() {
         hold(reference.as_mut(), &u[k]);
         let nis = supervisor.gate(reference.as_mut(), &z[k]).unwrap().nis;
         supervisor.commit(|_| {});
+        reference.set_process_noise_scale(supervisor.process_noise_scale()).unwrap();
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
         if k < samples {
@@ -861,6 +870,7 @@ fn check_master(setup: &Setup, h: f64, samples: usize) {
         }
         let mut ahead = setup.reference_filter_over(dt);
         ahead.restore(&reference.snapshot()).unwrap();
+        ahead.set_process_noise_scale(reference.noise().q_scale()).unwrap();
         ahead.predict(&[], dt).unwrap();
         setup.expected_outputs(ahead.as_ref(), reference.innovation().nis())
     };
@@ -872,6 +882,7 @@ fn check_master(setup: &Setup, h: f64, samples: usize) {
         if on_grid(t) {
             supervisor.gate(reference.as_mut(), &z).unwrap();
             supervisor.commit(|_| {});
+            reference.set_process_noise_scale(supervisor.process_noise_scale()).unwrap();
         }
         let expected = expected_at(reference.as_ref(), t, k);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}, h {h}: read at t = {t}");

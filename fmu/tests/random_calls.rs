@@ -1381,7 +1381,6 @@ fn random_call_sequences() {
         let per_thousand = (SEQUENCES / tables.len() as u64) as f64 / 1000.0;
         for (f, o, at_least) in [
             ("fmi2DoStep", "Ok", 2500),
-            ("fmi2DoStep", "Discard", 2),
             ("fmi2DoStep", "Error", 500),
             ("fmi2DoStep", "Illegal", 500),
             ("fmi2ExitInitializationMode", "Ok", 500),
@@ -1402,6 +1401,12 @@ fn random_call_sequences() {
             );
         }
     }
+    // A failed step (a filter that cannot go on) is reached on some FMU: the
+    // shell's path is the same for all, and a supervised filter that follows
+    // jumps and adapts its Q may never fail under these sequences.
+    let discards: u64 =
+        stats.iter().map(|s| s.get(&("fmi2DoStep".to_owned(), "Discard".to_owned())).copied().unwrap_or(0)).sum();
+    assert!(discards >= 2, "only {discards} calls of fmi2DoStep with outcome Discard over every FMU");
 }
 
 // ----- directed tests -----

@@ -128,6 +128,31 @@ impl<M: Model> Core<M> {
     }
 
     /// Restores time, input and mean; returns the covariance part for the filter.
+    /// For [`StateEstimator::mix_with`](crate::StateEstimator::mix_with):
+    /// checks `other` and `weight`, writes `d = x − x_o` into `x_next`
+    /// (scratch between steps) and returns `other`'s covariance words; the
+    /// mean is mixed by [`Core::mix_mean`] once the covariance is.
+    pub fn mix_difference<'a>(
+        &mut self,
+        kind: crate::filter::FilterKind,
+        other: &'a crate::filter::Snapshot,
+        weight: f64,
+    ) -> Result<&'a [f64], FilterError> {
+        crate::filter::check_weight(weight)?;
+        other.check(kind, self.n(), self.u.len())?;
+        for ((d, x), o) in self.x_next.iter_mut().zip(self.x.iter()).zip(&other.mean) {
+            *d = x - o;
+        }
+        Ok(&other.covariance)
+    }
+
+    /// The mean of the mixture: `w·x + (1 − w)·x_o`.
+    pub fn mix_mean(&mut self, other: &crate::filter::Snapshot, weight: f64) {
+        for (x, o) in self.x.iter_mut().zip(&other.mean) {
+            *x = weight * *x + (1.0 - weight) * o;
+        }
+    }
+
     pub fn restore<'a>(
         &mut self,
         kind: crate::filter::FilterKind,

@@ -92,10 +92,19 @@ pub trait StateEstimator {
     /// Scales the covariance: `P ← factor·P` (`factor ≥ 1`, finite), to open the
     /// belief again when the measurements show it has lost the state.
     fn scale_covariance(&mut self, factor: f64) -> Result<(), FilterError>;
-    /// Adds process noise: `P ← P + factor·Q` (`factor ≥ 0`, finite), the
-    /// uncertainty a jump of the unknown inputs adds (the supervisor's jump
-    /// hypothesis); on error the belief is unchanged.
-    fn add_process_noise(&mut self, factor: f64) -> Result<(), FilterError>;
+    /// Adds process noise to the states `states` selects (all when empty):
+    /// `P ← P + factor·D·Q·D`, `D` the diagonal 0/1 selection (`factor ≥ 0`,
+    /// finite): the uncertainty a jump of the unknown inputs adds (the
+    /// supervisor's jump hypothesis). On error the belief is unchanged.
+    fn add_process_noise(&mut self, factor: f64, states: &[bool]) -> Result<(), FilterError>;
+    /// Replaces the belief by the Gaussian with the moments of the mixture
+    /// `weight·(this belief) + (1 − weight)·other` (`other` a snapshot of a
+    /// filter of the same kind and size, at the same time; `weight` in
+    /// `[0, 1]`): mean `w·x + (1 − w)·x_o`, covariance
+    /// `w·P + (1 − w)·P_o + w·(1 − w)·d·dᵀ` with `d = x − x_o`. The
+    /// supervisor shows two hypotheses it cannot yet tell apart this way. On
+    /// error the belief is unchanged.
+    fn mix_with(&mut self, other: &Snapshot, weight: f64) -> Result<(), FilterError>;
 
     /// Writes the belief into `out` as plain numbers, reusing its buffers: no
     /// allocation once they have the capacity (copying a belief between two
@@ -165,13 +174,29 @@ pub(crate) fn check_scale(factor: f64) -> Result<(), FilterError> {
     }
 }
 
-/// Checks the factor of [`StateEstimator::add_process_noise`].
-pub(crate) fn check_process_noise_factor(factor: f64) -> Result<(), FilterError> {
-    if factor >= 0.0 && factor.is_finite() {
+/// Checks the weight of [`StateEstimator::mix_with`].
+pub(crate) fn check_weight(weight: f64) -> Result<(), FilterError> {
+    if (0.0..=1.0).contains(&weight) {
         Ok(())
     } else {
-        Err(FilterError::InvalidSetting(format!("process-noise factor must be finite and ≥ 0, got {factor}")))
+        Err(FilterError::InvalidSetting(format!("a mixture weight must be in [0, 1], got {weight}")))
     }
+}
+
+/// Checks the arguments of [`StateEstimator::add_process_noise`] for `n` states.
+pub(crate) fn check_process_noise_factor(factor: f64, states: &[bool], n: usize) -> Result<(), FilterError> {
+    if !(factor >= 0.0 && factor.is_finite()) {
+        return Err(FilterError::InvalidSetting(format!("process-noise factor must be finite and ≥ 0, got {factor}")));
+    }
+    if !states.is_empty() {
+        crate::error::check_len("process-noise state selection", n, states.len())?;
+    }
+    Ok(())
+}
+
+/// Whether state `i` is selected (all are when `states` is empty).
+pub(crate) fn selected(states: &[bool], i: usize) -> bool {
+    states.get(i).copied().unwrap_or(true)
 }
 
 /// Builds a filter of `kind` on `model`, starting from `prior` at time 0, for

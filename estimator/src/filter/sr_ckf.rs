@@ -36,7 +36,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{check_process_noise_factor, check_scale, FilterKind, StateEstimator};
+use crate::filter::{check_process_noise_factor, check_scale, selected, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Lanes, Tria};
 use crate::model::Model;
@@ -406,14 +406,39 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
         Ok(())
     }
 
-    fn add_process_noise(&mut self, factor: f64) -> Result<(), FilterError> {
-        check_process_noise_factor(factor)?;
-        // S' = Tria([√factor·S_Q, S]): the predict compound, its top block
-        // √factor·S_Qᵀ (upper triangular, as the layout wants), then Sᵀ, then zeros.
+    fn mix_with(&mut self, other: &crate::filter::Snapshot, weight: f64) -> Result<(), FilterError> {
+        // S̄ = Tria([√w·S, √(1 − w)·S_o, √(w(1 − w))·d]): the predict compound,
+        // its top block √w·Sᵀ (upper triangular, as the layout wants).
+        let other_s = self.core.mix_difference(FilterKind::SrCkf, other, weight)?;
         let n = self.core.n();
-        let root = factor.sqrt();
+        let (a, b, c) = (weight.sqrt(), (1.0 - weight).sqrt(), (weight * (1.0 - weight)).sqrt());
+        for r in 0..n {
+            let d_r = self.core.x_next[r];
+            let column = self.predict_compound.column_mut(r);
+            for k in 0..n {
+                column[k] = a * self.s[(r, k)];
+                column[n + k] = b * other_s[k * n + r];
+            }
+            column[2 * n..].fill(0.0);
+            column[2 * n] = c * d_r;
+        }
+        self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
+        ensure_finite(self.s_t_next.as_slice(), Stage::Update, "square-root covariance S of the mixture")?;
+        std::mem::swap(&mut self.s_t, &mut self.s_t_next);
+        self.s_t.transpose_to(&mut self.s);
+        self.core.mix_mean(other, weight);
+        Ok(())
+    }
+
+    fn add_process_noise(&mut self, factor: f64, states: &[bool]) -> Result<(), FilterError> {
+        let n = self.core.n();
+        check_process_noise_factor(factor, states, n)?;
+        // S' = Tria([√factor·D·S_Q, S]) (D·S_Q·(D·S_Q)ᵀ = D·Q·D): the predict
+        // compound, its top block √factor·(D·S_Q)ᵀ (upper triangular, as the
+        // layout wants), then Sᵀ, then zeros.
         let q_sqrt = self.core.noise.q_sqrt();
         for r in 0..n {
+            let root = if selected(states, r) { factor.sqrt() } else { 0.0 };
             let column = self.predict_compound.column_mut(r);
             for k in 0..n {
                 column[k] = root * q_sqrt[(r, k)];

@@ -168,6 +168,8 @@ pub struct Missile6Dof {
 impl Missile6Dof {
     /// Index of the first coefficient in the state.
     pub const COEFFICIENTS: usize = 10;
+    /// The unknown inputs' states, the ten coefficients: what a jump (a change of the airframe) moves.
+    pub const UNKNOWN_INPUTS: [usize; 10] = [10, 11, 12, 13, 14, 15, 16, 17, 18, 19];
     /// Names of the state components, in order.
     pub const STATE_NAMES: [&'static str; 20] = [
         "Vx", "Vy", "Vz", "phi", "psi", "gamma", "h", "omega_x", "omega_y", "omega_z", "Cx0", "Cx_a", "Cx_b", "Cx_d",

@@ -100,6 +100,8 @@ pub struct Oscillator2DofLoad {
 impl Oscillator2DofLoad {
     /// Index of the load `F` in the state.
     pub const LOAD: usize = 2;
+    /// The unknown input's states, `F` and `Ḟ`: what a jump of the load moves.
+    pub const UNKNOWN_INPUTS: [usize; 2] = [2, 5];
     /// Names of the state components, in order.
     pub const STATE_NAMES: [&'static str; 6] = ["z1", "z2", "F", "z1_dot", "z2_dot", "F_dot"];
     /// Names of the measurements, in order.

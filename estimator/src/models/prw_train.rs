@@ -66,6 +66,8 @@ impl PrwTrain {
     pub const SPEED: usize = 1;
     /// Index of the acceleration `a`.
     pub const ACCELERATION: usize = 2;
+    /// The unknown input's state, the acceleration (traction and braking): what a jump moves.
+    pub const UNKNOWN_INPUTS: [usize; 1] = [2];
     /// Index of the first channel's offset `d₁`; `d_i` is at `OFFSETS + i`.
     pub const OFFSETS: usize = 3;
     /// The state dimension.

@@ -133,6 +133,8 @@ pub struct WheelRailVertical {
 impl WheelRailVertical {
     /// Index of `F_N1` in the state; `F_N2..4` follow.
     pub const FORCES: usize = 20;
+    /// The unknown inputs' states, the four forces: what a jump (a weld) moves.
+    pub const UNKNOWN_INPUTS: [usize; 4] = [20, 21, 22, 23];
     /// Names of the state components, in order.
     pub const STATE_NAMES: [&'static str; 24] = [
         "z_c",

@@ -13,7 +13,7 @@
 //! ρ̄ = mean over the rows used of min(νᵢ²/Sᵢᵢ, c)      (first pass, c: χ²(1) quantile 1 − 1e-6)
 //! f = mean over the rows used of (Sᵢᵢ − rᵢ)/Sᵢᵢ        (the share of Sᵢᵢ that P, hence Q, makes)
 //! ρ̂ ← ρ̂ + (ρ̄ − ρ̂)/W                                  (W: SupervisorSettings::adaptation_window)
-//! ln s ← clamp(ln s + (ρ̄ − 1)/(W·ρ̂·max(f, 0.1)), ln s_min, ln s_max)
+//! ln s ← clamp(ln s + clamp((ρ̂ − 1)/(W·ρ̂·max(f, 0.1)), ±1/W), ln s_min, ln s_max)
 //! ```
 //!
 //! This is a stochastic-approximation (Robbins–Monro) step towards `E[ρ̄] = 1`
@@ -26,8 +26,10 @@
 //! scale by its bounds. The clip bounds what one
 //! gross error can do: a row rejected by the gate teaches nothing, and one
 //! glitch the gate let through moves `ln s` by at most `c/W`. The bounds keep
-//! the scale in a range a user can state (`Q` at most 10⁴ times wrong by
-//! default). The scale applies from the next prediction on.
+//! the scale in a range a user can state (`Q` at most 100 times wrong by
+//! default), and each step is at most `1/W`: `P`, hence `S`, answers a new
+//! `Q` only over the filter's own time constant, and larger steps overshoot.
+//! The scale applies from the next prediction on.
 //!
 //! What it cannot do: tell `Q` from a wrong `R` when both are wrong, since a
 //! scale on `Q` alone is fitted. The offline tuning from a log estimates both
@@ -73,7 +75,12 @@ impl Adaptation {
         let window = settings.adaptation_window as f64;
         self.mean_ratio += (mean_ratio - self.mean_ratio) / window;
         // A Newton step on ln ρ̂ against ln s: d ln S/d ln s ≈ f.
-        let step = (mean_ratio - 1.0) / (window * self.mean_ratio.max(0.05) * share.max(MIN_SHARE));
+        // On the running mean: a step clipped sample by sample would be biased
+        // (a sample's ρ̄ is skewed, χ²-like, and mostly its large values are cut).
+        let newton = (self.mean_ratio - 1.0) / (window * self.mean_ratio.max(0.05) * share.max(MIN_SHARE));
+        // At most 1/W per sample: P, hence S, answers a new Q only over the
+        // filter's own time constant, and larger steps overshoot.
+        let step = newton.clamp(-1.0 / window, 1.0 / window);
         if step.is_finite() {
             let (low, high) = (settings.min_process_noise_scale.ln(), settings.max_process_noise_scale.ln());
             self.log_scale = (self.log_scale + step).clamp(low, high);

@@ -88,6 +88,8 @@ pub(super) struct Workspace {
     pub z_hypothesis: Vec<f64>,
     /// The belief of the fault hypothesis of a jump taken at this sample.
     pub hypothesis: Snapshot,
+    /// The belief of the jump hypothesis of a jump taken at this sample.
+    pub jumped: Snapshot,
     /// The other belief of a review.
     pub alternative: Snapshot,
 }
@@ -109,6 +111,7 @@ impl Workspace {
             unexplained: vec![false; m],
             z_hypothesis: vec![f64::NAN; m],
             hypothesis: empty_snapshot(),
+            jumped: empty_snapshot(),
             alternative: empty_snapshot(),
         }
     }
@@ -178,6 +181,9 @@ impl Supervisor {
     /// as before the call.
     pub fn gate(&mut self, filter: &mut dyn StateEstimator, z: &[f64]) -> Result<&Outcome, FilterError> {
         crate::error::check_len("measurement z", self.channels.len(), z.len())?;
+        if !self.jump_states.is_empty() {
+            crate::error::check_len("jump states", filter.state_dim(), self.jump_states.len())?;
+        }
         self.offer(z);
         filter.snapshot_into(&mut self.work.before);
         self.reserve_beliefs();
@@ -223,7 +229,14 @@ impl Supervisor {
     /// later one allocates (a jump, a review copy beliefs).
     fn reserve_beliefs(&mut self) {
         let before = &self.work.before;
-        for belief in [&mut self.work.hypothesis, &mut self.work.alternative, &mut self.review.hypothesis] {
+        let beliefs = [
+            &mut self.work.hypothesis,
+            &mut self.work.jumped,
+            &mut self.work.alternative,
+            &mut self.review.hypothesis,
+            &mut self.review.jumped,
+        ];
+        for belief in beliefs {
             for (buffer, len) in [
                 (&mut belief.input, before.input.len()),
                 (&mut belief.mean, before.mean.len()),
@@ -276,8 +289,9 @@ impl Supervisor {
         pending.steps.fill(0.0);
         pending.jump = 0.0;
         pending.explained.fill(false);
+        pending.ambiguous = false;
         pending.reviewed = false;
-        pending.retracted = false;
+        pending.retracted.fill(false);
         self.work.residuals.fill(f64::NAN);
         self.work.first_ratios.fill(f64::NAN);
     }

@@ -6,12 +6,15 @@
 //! spectrum wider than the tuning). The two are told apart by what the
 //! unknown inputs can do:
 //!
-//! * **Explained by a jump.** Adding process noise `c·Q` to `P` raises the
-//!   innovation variance of row `i` by `c·Gᵢ`, `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found from one
-//!   probe update with `P + Q`. A failing row is explained when some
+//! * **Explained by a jump.** Adding process noise `c·Q` to `P`, in the
+//!   states of the unknown inputs ([`Supervisor::with_jump_states`]; all by
+//!   default), raises the innovation variance of row `i` by `c·Gᵢ`,
+//!   `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found from one probe update with `P + Q`. A failing row is explained when some
 //!   `c ≤ implausible_sigmas²` brings its innovation to one σ; a row no jump
 //!   of the unknown inputs reaches (`Gᵢ ≈ 0`: in S1 the acceleration of the
-//!   mass the load does not act on) is a fault, and rejected.
+//!   mass the load does not act on) is a fault, and rejected. Only the
+//!   unknown inputs jump: a drifting sensor that the motion states' small
+//!   process noise could follow, one large jump after another, must not be.
 //! * **Not contradicted by the other rows.** The row is then predicted from
 //!   the update with the other rows under `P + c·Q` (leave one out): where
 //!   they see the same directions of the state, they pin what it can be, and
@@ -19,14 +22,19 @@
 //!   then made from `P + c·Q` with the largest such `c` and every row not
 //!   rejected: the change is followed at once, its σ widened as it must be.
 //!   The rows that fail even so are faults.
-//! * **Reviewed at the next sample.** Where only the jumping directions see a
-//!   row (S1's load acts on one accelerometer alone), one sample cannot tell
-//!   a spike from a step. The belief without the explained rows (the fault
-//!   hypothesis) is kept; at the next sample both beliefs are predicted and
-//!   the one whose innovation is the likelier for the new measurement is
-//!   followed. A step persists and keeps the jump; a spike is undone: the
-//!   next update starts from the fault hypothesis, and the spike's rows
-//!   count as rejected, one sample late.
+//! * **Confirmed** when two or more rows explain the same jump: two sensors
+//!   failing at once, and agreeing, is not the likely reading.
+//! * **Reviewed at the next sample** when one row alone explains it. Where
+//!   only the jumping directions see a row (S1's load acts on one
+//!   accelerometer alone), one sample cannot tell a spike from a step. The
+//!   belief shown has the mean of the fault hypothesis (the update without
+//!   the row: data in doubt moves nothing until it is confirmed) and the
+//!   covariance of the half-and-half mixture of both hypotheses, so that its
+//!   σ covers the jump should it be one (its error is then within 2σ). Both
+//!   beliefs are kept; at the next sample both are
+//!   predicted and the one whose innovation is the likelier for the new
+//!   measurement is followed. A step persists and keeps the jump; a spike is
+//!   undone, and its row counts as rejected, one sample late.
 //!
 //! A jump never re-acquires (it does not inflate every direction of `P`), so
 //! it spends nothing of the inflation budget.
@@ -43,14 +51,16 @@ pub(super) struct Review {
     pub active: bool,
     /// The rows its failure explained.
     pub explained: Vec<bool>,
-    /// The belief after the jump's sample without the explained rows.
+    /// The belief after the jump's sample without the explained rows (the fault hypothesis).
     pub hypothesis: Snapshot,
+    /// The belief after the jump (the jump hypothesis).
+    pub jumped: Snapshot,
 }
 
 impl Review {
     /// None pending, for `m` rows.
     pub fn new(m: usize) -> Self {
-        Self { active: false, explained: vec![false; m], hypothesis: empty_snapshot() }
+        Self { active: false, explained: vec![false; m], hypothesis: empty_snapshot(), jumped: empty_snapshot() }
     }
 }
 
@@ -80,7 +90,9 @@ impl Supervisor {
         let limit = self.settings.implausible_sigmas * self.settings.implausible_sigmas;
         // The probe: G from the innovation variances with P + Q.
         filter.restore(&self.work.before)?;
-        let probed = filter.add_process_noise(1.0).and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
+        let probed = filter
+            .add_process_noise(1.0, &self.jump_states)
+            .and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
         if probed.is_err() {
             filter.restore(&self.work.before)?;
             return Ok(false);
@@ -138,7 +150,9 @@ impl Supervisor {
         }
         for _ in 0..2 {
             filter.restore(&self.work.before)?;
-            let jumped = filter.add_process_noise(factor).and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
+            let jumped = filter
+                .add_process_noise(factor, &self.jump_states)
+                .and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
             if jumped.is_err() {
                 filter.restore(&self.work.before)?;
                 self.restore_gated();
@@ -168,6 +182,22 @@ impl Supervisor {
             return Ok(false);
         }
         (self.pending.nis, self.pending.dof) = (innovation.nis(), innovation.rows_used());
+        let alone = self.work.explained.iter().filter(|&&e| e).count() == 1;
+        if alone {
+            filter.snapshot_into(&mut self.work.jumped);
+            // The belief shown: the fault hypothesis's mean, the mixture's covariance.
+            let shown = filter.mix_with(&self.work.hypothesis, 0.5).and_then(|()| {
+                filter.snapshot_into(&mut self.work.alternative);
+                self.work.alternative.mean.copy_from_slice(&self.work.hypothesis.mean);
+                filter.restore(&self.work.alternative)
+            });
+            if shown.is_err() {
+                filter.restore(&self.work.before)?;
+                self.restore_gated();
+                return Ok(false);
+            }
+        }
+        self.pending.ambiguous = alone;
         for r in 0..self.pending.rows.len() {
             if self.work.unexplained[r] {
                 self.pending.rows[r] = RowOutcome::Rejected;
@@ -193,8 +223,9 @@ impl Supervisor {
                     if j == r || self.work.unexplained[j] { f64::NAN } else { self.work.z_gated[j] };
             }
             filter.restore(&self.work.before)?;
-            let rest =
-                filter.add_process_noise(factor).and_then(|()| filter.update(&self.work.z_hypothesis).map(|_| ()));
+            let rest = filter
+                .add_process_noise(factor, &self.jump_states)
+                .and_then(|()| filter.update(&self.work.z_hypothesis).map(|_| ()));
             self.work.z_hypothesis.fill(f64::NAN);
             self.work.z_hypothesis[r] = self.work.z_gated[r];
             let alone = rest.and_then(|()| {
@@ -227,30 +258,38 @@ impl Supervisor {
         self.work.unexplained.fill(false);
     }
 
-    /// Reviews the jump of the last sample against the measurement offered
-    /// (`before` holds the filter's prediction): predicts the fault
-    /// hypothesis to this sample and keeps the belief whose innovation is the
-    /// likelier, as the new `before`. Leaves the filter at `before`.
+    /// Reviews the jump of the last sample against the measurement offered:
+    /// predicts both hypotheses to this sample (the filter's own prediction,
+    /// of their mixture, is set aside) and keeps, as the new `before`, the
+    /// one whose innovation is the likelier. Leaves the filter at `before`.
     pub(super) fn review(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
         if !self.review.active {
             return Ok(());
         }
         self.pending.reviewed = true;
-        let jumped = filter.update(&self.work.z_gated).map(|i| (i.log_likelihood(), i.rows_used()));
-        let hypothesis = &self.review.hypothesis;
-        let dt = self.work.before.time - hypothesis.time;
-        let before = &self.work.before;
-        let faulted = filter
-            .restore(hypothesis)
-            .and_then(|()| if dt > 0.0 { filter.predict(&hypothesis.input, dt) } else { Ok(()) })
-            .and_then(|()| filter.hold_input(&before.input))
-            .map(|()| filter.snapshot_into(&mut self.work.alternative))
-            .and_then(|()| filter.update(&self.work.z_gated).map(|i| (i.log_likelihood(), i.rows_used())));
-        if let (Ok((jumped, rows)), Ok((faulted, same_rows))) = (jumped, faulted) {
-            if rows > 0 && rows == same_rows && faulted > jumped {
-                std::mem::swap(&mut self.work.before, &mut self.work.alternative);
-                self.pending.retracted = true;
-            }
+        let (time, work, review) = (self.work.before.time, &mut self.work, &self.review);
+        let mut likelihood = |belief: &Snapshot, predicted: &mut Snapshot| {
+            let dt = time - belief.time;
+            filter
+                .restore(belief)
+                .and_then(|()| if dt > 0.0 { filter.predict(&belief.input, dt) } else { Ok(()) })
+                .and_then(|()| filter.hold_input(&work.before.input))
+                .map(|()| filter.snapshot_into(predicted))
+                .and_then(|()| filter.update(&work.z_gated).map(|i| (i.log_likelihood(), i.rows_used())))
+        };
+        let jumped = likelihood(&review.jumped, &mut work.alternative);
+        let faulted = likelihood(&review.hypothesis, &mut work.hypothesis);
+        let faulty = match (jumped, faulted) {
+            (Ok((jumped, rows)), Ok((faulted, same_rows))) => rows > 0 && rows == same_rows && faulted > jumped,
+            (Err(_), Ok(_)) => true,
+            (Ok(_), Err(_)) => false,
+            // Neither can be predicted: the mixture's prediction stands.
+            (Err(_), Err(_)) => return filter.restore(&self.work.before),
+        };
+        let winner = if faulty { &mut self.work.hypothesis } else { &mut self.work.alternative };
+        std::mem::swap(&mut self.work.before, winner);
+        if faulty {
+            self.pending.retracted.copy_from_slice(&self.review.explained);
         }
         filter.restore(&self.work.before)
     }

@@ -16,7 +16,8 @@
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
-//! then, as floats, the reviewed belief: inputs, states means, states² covariance words
+//! then, as floats, the two beliefs under review (the fault hypothesis, then the
+//! jump's): each its inputs, states means and states² covariance words
 //! ```
 //!
 //! The `record!` lines below are that table: a record's words are its fields
@@ -272,9 +273,10 @@ impl Supervisor {
             ReviewRow { explained }.save(out);
         }
         if review.active {
-            let belief = &self.review.hypothesis;
-            for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
-                out.push(v.to_bits());
+            for belief in [&self.review.hypothesis, &self.review.jumped] {
+                for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
+                    out.push(v.to_bits());
+                }
             }
         }
     }
@@ -314,7 +316,7 @@ impl Supervisor {
         }
         let review_at = fixed - ReviewHeader::WORDS - m * ReviewRow::WORDS;
         let review = ReviewHeader::load(&words[review_at..review_at + ReviewHeader::WORDS], "the review")?;
-        let belief_words = review.inputs + review.states + review.states * review.states;
+        let belief_words = 2 * (review.inputs + review.states + review.states * review.states);
         let expected = fixed + belief_words;
         if words.len() != expected {
             return Err(invalid(format!("{} words, its header says {expected}", words.len())));
@@ -380,8 +382,7 @@ impl Supervisor {
             explained.push(ReviewRow::load(words, &format!("review row {c}"))?.explained);
         }
         let floats: Vec<f64> = words[at..].iter().map(|w| f64::from_bits(*w)).collect();
-        let (input, rest) = floats.split_at(review.inputs);
-        let (mean, covariance) = rest.split_at(review.states);
+        let (hypothesis, jumped) = floats.split_at(belief_words / 2);
 
         self.channels = channels;
         self.adaptation = adaptation;
@@ -389,13 +390,16 @@ impl Supervisor {
         self.review.active = review.active;
         self.review.explained = explained;
         if review.active {
-            let belief = &mut self.review.hypothesis;
-            (belief.kind, belief.time) = (kind, review.time);
-            for (to, from) in
-                [(&mut belief.input, input), (&mut belief.mean, mean), (&mut belief.covariance, covariance)]
-            {
-                to.clear();
-                to.extend_from_slice(from);
+            for (belief, floats) in [(&mut self.review.hypothesis, hypothesis), (&mut self.review.jumped, jumped)] {
+                let (input, rest) = floats.split_at(review.inputs);
+                let (mean, covariance) = rest.split_at(review.states);
+                (belief.kind, belief.time) = (kind, review.time);
+                for (to, from) in
+                    [(&mut belief.input, input), (&mut belief.mean, mean), (&mut belief.covariance, covariance)]
+                {
+                    to.clear();
+                    to.extend_from_slice(from);
+                }
             }
         }
         self.reacquisition = reacquisition;

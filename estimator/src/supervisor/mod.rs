@@ -62,6 +62,8 @@ pub struct Supervisor {
     thresholds: Thresholds,
     /// Quantised bias steps, when the model has them.
     steps: Option<QuantizedSteps>,
+    /// The states a jump moves (`jump.rs`): the unknown inputs; empty for all.
+    jump_states: Vec<bool>,
     // The memory: what a commit changes and `save` writes.
     channels: Vec<Channel>,
     reacquisition: Reacquisition,
@@ -84,6 +86,7 @@ impl Supervisor {
             settings,
             thresholds: Thresholds::new(&settings, m),
             steps: None,
+            jump_states: Vec::new(),
             channels: vec![Channel::new(); m],
             reacquisition: Reacquisition::new(),
             window: ConsistencyWindow::new(&settings, m),
@@ -100,6 +103,18 @@ impl Supervisor {
     pub fn with_steps(mut self, steps: QuantizedSteps) -> Result<Self, FilterError> {
         steps.validate(self.channels.len())?;
         self.steps = Some(steps);
+        Ok(self)
+    }
+
+    /// With jumps (`jump.rs`) made in the states `states` (indices of an
+    /// `n`-state model) only: the model's unknown inputs (S1's load and its
+    /// rate, S2's wheel–rail forces), whose process noise stands for what the
+    /// model does not know. Without this call, every state may jump.
+    pub fn with_jump_states(mut self, n: usize, states: &[usize]) -> Result<Self, FilterError> {
+        if let Some(i) = states.iter().find(|&&i| i >= n) {
+            return Err(FilterError::InvalidSetting(format!("jump state {i} is not a state of an {n}-state model")));
+        }
+        self.jump_states = (0..n).map(|i| states.contains(&i)).collect();
         Ok(self)
     }
 
@@ -182,7 +197,9 @@ impl Supervisor {
 
     /// Gate rejections so far plus those of the pending outcome.
     pub fn rejected_with_pending(&self) -> u64 {
-        self.rejected() + self.pending.rows.iter().filter(|r| **r == RowOutcome::Rejected).count() as u64
+        let rejected = self.pending.rows.iter().filter(|r| **r == RowOutcome::Rejected).count();
+        let retracted = self.pending.retracted.iter().filter(|r| **r).count();
+        self.rejected() + (rejected + retracted) as u64
     }
 
     /// The measurement the last [`Supervisor::gate`] was given, as offered.
@@ -209,9 +226,9 @@ impl Supervisor {
         }
         self.reacquisition.count(outcome, self.settings.max_inflation);
         self.window.push(WindowEntry { clipped_ratios: outcome.clipped_ratios, rows: outcome.gated_rows });
-        if outcome.retracted {
+        if outcome.retracted.contains(&true) {
             // The spike the review found counts as rejected, one sample late.
-            for (channel, _) in self.channels.iter_mut().zip(&self.review.explained).filter(|(_, e)| **e) {
+            for (channel, _) in self.channels.iter_mut().zip(&outcome.retracted).filter(|(_, r)| **r) {
                 channel.rejected = channel.rejected.saturating_add(1);
             }
             self.jumps.retracted = self.jumps.retracted.saturating_add(1);
@@ -220,10 +237,13 @@ impl Supervisor {
             self.review.active = false;
         }
         if outcome.jump > 0.0 {
+            self.jumps.taken = self.jumps.taken.saturating_add(1);
+        }
+        if outcome.ambiguous {
             self.review.active = true;
             std::mem::swap(&mut self.review.hypothesis, &mut self.work.hypothesis);
+            std::mem::swap(&mut self.review.jumped, &mut self.work.jumped);
             self.review.explained.copy_from_slice(&outcome.explained);
-            self.jumps.taken = self.jumps.taken.saturating_add(1);
         }
         self.adaptation.learn(outcome, &self.settings);
     }

@@ -41,11 +41,15 @@ pub struct Outcome {
     pub jump: f64,
     /// Per row: its failure was explained by that jump and it was used.
     pub explained: Vec<bool>,
+    /// One row alone explained it: the belief is the mixture of the jump and
+    /// the fault hypothesis, reviewed at the next sample.
+    pub ambiguous: bool,
     /// The jump of the previous sample was reviewed at this one.
     pub reviewed: bool,
-    /// The review found it a gross error: its explained rows count as rejected
-    /// at the commit, and this update started from the belief without them.
-    pub retracted: bool,
+    /// Per row: the review found the previous sample's jump a gross error of
+    /// this row, which counts as rejected at the commit (one sample late);
+    /// this update started from the belief without it.
+    pub retracted: Vec<bool>,
     /// The first pass's normalised innovations of the rows finally used, each
     /// clipped (the adaptation's evidence, `adaptation.rs`), summed.
     pub adaptation_ratios: f64,
@@ -73,8 +77,9 @@ impl Outcome {
             steps: vec![0.0; m],
             jump: 0.0,
             explained: vec![false; m],
+            ambiguous: false,
             reviewed: false,
-            retracted: false,
+            retracted: vec![false; m],
             adaptation_ratios: 0.0,
             adaptation_share: 0.0,
             adaptation_rows: 0,

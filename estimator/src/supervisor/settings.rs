@@ -34,16 +34,18 @@ pub struct SupervisorSettings {
     pub max_inflation: f64,
     /// A failing row that a jump of the unknown inputs explains, and the
     /// other rows do not contradict, is used from `P + c·Q` instead of being
-    /// rejected, and reviewed at the next sample (`jump.rs`). Default off
-    /// (until the studies' tables are made with it).
+    /// rejected, and reviewed at the next sample (`jump.rs`). Default on.
     pub jumps: bool,
     /// Samples over which the process-noise scale adapts (`adaptation.rs`):
     /// its gain per sample is the inverse. 0 turns the adaptation off (the
-    /// scale stays 1). Default 0 (off, until the studies' tables are made with it).
+    /// scale stays 1). Default 200.
     pub adaptation_window: usize,
-    /// The least the adaptation may scale the `Q` given by. Default 1e-4.
+    /// The least the adaptation may scale the `Q` given by. Default 1e-2.
     pub min_process_noise_scale: f64,
-    /// The most the adaptation may scale the `Q` given by. Default 1e4.
+    /// The most the adaptation may scale the `Q` given by. Default 1e2: a
+    /// user's `Q` is taken to be at most a hundred times wrong either way
+    /// (wider bounds let S2's filter, whose innovations are small for reasons
+    /// no scale on `Q` reaches, drive its `Q` down until its weld is lost).
     pub max_process_noise_scale: f64,
 }
 
@@ -59,10 +61,10 @@ impl Default for SupervisorSettings {
             consistency_probability: 1e-6,
             consistency_margin: 3.0,
             max_inflation: 1e8,
-            jumps: false,
-            adaptation_window: 0,
-            min_process_noise_scale: 1e-4,
-            max_process_noise_scale: 1e4,
+            jumps: true,
+            adaptation_window: 200,
+            min_process_noise_scale: 1e-2,
+            max_process_noise_scale: 1e2,
         }
     }
 }
@@ -102,5 +104,11 @@ impl SupervisorSettings {
     /// `window` samples.
     pub fn adaptive(self, window: usize) -> Self {
         Self { jumps: true, adaptation_window: window, ..self }
+    }
+
+    /// These settings as the supervisor was before it learnt `Q` and told
+    /// jumps from faults: every failing row rejected, `Q` as given.
+    pub fn fixed(self) -> Self {
+        Self { jumps: false, adaptation_window: 0, ..self }
     }
 }

@@ -79,6 +79,9 @@ pub struct Descriptor {
     pub derive: Derive,
     /// The quantised bias steps.
     pub build_steps: BuildSteps,
+    /// The states of the model's unknown inputs (its augmented states): the
+    /// only ones a jump moves (`estimator::Supervisor::with_jump_states`).
+    pub unknown_inputs: &'static [usize],
     guid: String,
 }
 
@@ -292,10 +295,43 @@ fn common_variables(sample_time: f64, filter: FilterKind, supervision: &Supervis
             "the most re-acquisitions may multiply the covariance by in total until a sample passes the gate whole",
         )
         .bounded(Some(1.0), None),
+        Variable::integer_parameter(
+            "take_jumps",
+            u32::from(supervision.jumps),
+            (0, 1),
+            "1: a failing input that a jump of the unknown inputs explains, and the other inputs do not contradict, \
+             is used (the covariance opened in their directions) instead of rejected, and reviewed at the next sample",
+        ),
+        Variable::integer_parameter(
+            "adaptation_window",
+            supervision.adaptation_window as u32,
+            (0, 1_000_000),
+            "samples over which the scale on the process noise Q adapts to the innovations (0: no adaptation)",
+        ),
+        Variable::parameter(
+            "min_process_noise_scale",
+            "1",
+            supervision.min_process_noise_scale,
+            "the least the adaptation may scale the process noise given by",
+        )
+        .bounded(Some(1e-300), Some(1.0)),
+        Variable::parameter(
+            "max_process_noise_scale",
+            "1",
+            supervision.max_process_noise_scale,
+            "the most the adaptation may scale the process noise given by",
+        )
+        .bounded(Some(1.0), None),
         Variable::parameter("ukf_alpha", "1", 1e-3, "UKF spread alpha (UKF only)").bounded(Some(1e-9), None),
         Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
         Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),
         Variable::output("nis", "1", Role::Nis, "normalised innovation squared of the last update"),
+        Variable::output(
+            "process_noise_scale",
+            "1",
+            Role::ProcessNoiseScale,
+            "the scale the adaptation puts on the process noise Q given (1 without adaptation)",
+        ),
         Variable::count(
             "skipped_measurements",
             Role::SkippedMeasurements,

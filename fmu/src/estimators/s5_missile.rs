@@ -231,6 +231,7 @@ pub(super) fn descriptor() -> Descriptor {
         supervision: SupervisorSettings::default(),
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
+        unknown_inputs: &Missile6Dof::UNKNOWN_INPUTS,
         guid: String::new(),
     }
     .finish()

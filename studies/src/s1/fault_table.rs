@@ -33,6 +33,10 @@ pub struct Args {
     /// Gate probability (1 turns the gate off).
     #[arg(long, default_value_t = SupervisorSettings::default().gate_probability)]
     pub gate: f64,
+    /// The supervisor as it was before it took jumps and adapted Q: every
+    /// failing row rejected, Q as given (`SupervisorSettings::fixed`).
+    #[arg(long)]
+    pub fixed: bool,
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
@@ -57,7 +61,8 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         }
     }
     settings.validate().map_err(anyhow::Error::msg)?;
-    let supervision = SupervisorSettings { gate_probability: args.gate, ..SupervisorSettings::default() };
+    let defaults = if args.fixed { SupervisorSettings::default().fixed() } else { SupervisorSettings::default() };
+    let supervision = SupervisorSettings { gate_probability: args.gate, ..defaults };
     supervision.validate()?;
     let jobs: Vec<(Fault, FilterKind)> = Fault::ALL
         .iter()
@@ -71,12 +76,17 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "S1 {} with faults from 20 s ({} s, seed {}, noise {:.1} % of RMS, gate probability 1 − {:.0e}); supervisor defaults of estimator::SupervisorSettings",
+        "S1 {} with faults from 20 s ({} s, seed {}, noise {:.1} % of RMS, gate probability 1 − {:.0e}); supervisor: {}",
         args.case,
         args.duration,
         args.seed,
         100.0 * args.noise,
-        1.0 - args.gate
+        1.0 - args.gate,
+        if args.fixed {
+            "fixed (every failing row rejected, Q as given: SupervisorSettings::fixed)"
+        } else {
+            "defaults of estimator::SupervisorSettings (jumps taken, Q adapted)"
+        }
     );
     let _ = writeln!(
         out,

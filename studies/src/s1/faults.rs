@@ -230,7 +230,8 @@ pub fn run(
     };
     let tuning = Tuning::new(settings, measurements.noise_std);
     let built = tuning.filter(kind, case, tuning.noise()).and_then(|filter| {
-        let supervisor = Supervisor::new(supervision, 2)?;
+        let n = filter.state_dim();
+        let supervisor = Supervisor::new(supervision, 2)?.with_jump_states(n, &Oscillator2DofLoad::UNKNOWN_INPUTS)?;
         SupervisedFilter::new(filter, supervisor)
     });
     let mut supervised = match built {
@@ -248,6 +249,17 @@ pub fn run(
         let k = step.index;
         let z = step.sample.z;
         for c in 0..2 {
+            // A jump the review retracted: the previous sample's row was rejected, one sample late.
+            if step.outcome.retracted[c] && k > 0 {
+                if corrupted[k - 1][c] {
+                    run.corrupted_rejected.0 += 1;
+                    if run.detection_delay.is_none() {
+                        run.detection_delay = first_corrupted.map(|f| k - f);
+                    }
+                } else {
+                    run.false_rejections += 1;
+                }
+            }
             let (finite, bad) = (z[c].is_finite(), corrupted[k][c]);
             let left_out = matches!(step.outcome.rows[c], RowOutcome::Rejected | RowOutcome::Stuck);
             let flagged = left_out || step.supervisor.channels()[c].faulty;

@@ -136,8 +136,10 @@ pub fn run_filter(
     let unscented = estimator::UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(&vehicle), unscented)
         .map_err(|e| format!("setup: {e}"))?;
-    let supervisor =
-        estimator::Supervisor::new(estimator::SupervisorSettings::default(), 7).map_err(|e| format!("setup: {e}"))?;
+    let unknown_inputs = &estimator::models::WheelRailVertical::UNKNOWN_INPUTS;
+    let supervisor = estimator::Supervisor::new(estimator::SupervisorSettings::default(), 7)
+        .and_then(|s| s.with_jump_states(filter.state_dim(), unknown_inputs))
+        .map_err(|e| format!("setup: {e}"))?;
     let mut supervised = estimator::SupervisedFilter::new(filter, supervisor).map_err(|e| format!("setup: {e}"))?;
     let mut estimates = Estimates::default();
     let samples = measurements.accelerations.iter().enumerate().map(|(k, z)| estimator::Sample {

@@ -183,7 +183,8 @@ impl Settings {
             tuning,
             // A live position channel never repeats a reading bit for bit: a resent
             // telegram is stuck from its first repeat.
-            supervisor: SupervisorSettings { stuck_after: 2, ..SupervisorSettings::default() },
+            // The FMU's: Q as given (see `kalfmu_fmu`'s S4 table), jumps taken.
+            supervisor: SupervisorSettings { stuck_after: 2, adaptation_window: 0, ..SupervisorSettings::default() },
             slips: SlipHandling::Rebase,
             slip_after: 3,
             slip_tolerance: 0.01,
@@ -277,8 +278,9 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
     );
     let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let filter = build_filter(settings.kind, model, noise, &prior, unscented).map_err(|e| format!("setup: {e}"))?;
-    let mut supervisor =
-        Supervisor::new(settings.supervisor, PrwTrain::MARKER + 1).map_err(|e| format!("setup: {e}"))?;
+    let mut supervisor = Supervisor::new(settings.supervisor, PrwTrain::MARKER + 1)
+        .and_then(|s| s.with_jump_states(filter.state_dim(), &PrwTrain::UNKNOWN_INPUTS))
+        .map_err(|e| format!("setup: {e}"))?;
     if settings.slips == SlipHandling::Rebase {
         let steps = QuantizedSteps {
             quantum: SLOT_PITCH,

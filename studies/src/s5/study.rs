@@ -117,7 +117,10 @@ pub fn run_supervised(
     let unscented = estimator::UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(), unscented)
         .map_err(|e| format!("setup: {e}"))?;
-    let supervisor = estimator::Supervisor::new(supervision, 12).map_err(|e| format!("setup: {e}"))?;
+    let unknown_inputs = &estimator::models::Missile6Dof::UNKNOWN_INPUTS;
+    let supervisor = estimator::Supervisor::new(supervision, 12)
+        .and_then(|s| s.with_jump_states(filter.state_dim(), unknown_inputs))
+        .map_err(|e| format!("setup: {e}"))?;
     let mut supervised = estimator::SupervisedFilter::new(filter, supervisor).map_err(|e| format!("setup: {e}"))?;
     let mut estimates = Estimates::default();
     // The deflections held over the last interval drive the prediction to a sample; those
