@@ -193,7 +193,9 @@ def as_read(ref: dict) -> dict:
 #: `PiecewiseLinear::linear(5)` does: with the default breakpoints the three
 #: equal slopes give the same law but round differently in the last bit
 #: (k·ε₁ + k·(a − ε₁) ≠ k·a), which the filter carries on at the 1e-13 level.
-SAME_LAW = {"eps1": 1e300, "eps2": 1e300}
+#: And `adaptation_window = 0`: the replay runs the filter with the Q given, no
+#: supervisor (the FMU's adaptation of Q has its own test).
+SAME_LAW = {"eps1": 1e300, "eps2": 1e300, "adaptation_window": 0}
 
 
 # --------------------------------------------------------------------------
@@ -258,8 +260,11 @@ def simulate_s1(fmu: Path, table: S1Table, model_description, extra: dict | None
 
 @pytest.fixture(scope="module")
 def simulated(s1_fmu, s1_table, model_description):
-    """The default FMU (only the sensor noise set) over the table."""
-    return simulate_s1(s1_fmu, s1_table, model_description)
+    """The default FMU (only the sensor noise set) over the table, its
+    adaptation of Q off: the reference (`kalfmu replay`) is the filter with the
+    Q given and no supervisor (on these clean data the gate and the jumps never
+    act; `test_the_adaptation_is_an_output_and_can_be_switched_off` covers it)."""
+    return simulate_s1(s1_fmu, s1_table, model_description, {"adaptation_window": 0})
 
 
 def test_simulate_fmu_records_the_library_estimates_at_their_time_stamps(simulated, s1_table, defaults, kalfmu_bin):
@@ -375,6 +380,7 @@ class Slave:
         md = model_description
         self.name = name
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.kinds = {v.name: v.type for v in md.modelVariables}
         self.real_outputs = [
             v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"
         ]
@@ -435,8 +441,13 @@ class Slave:
         self.fmu.exitInitializationMode()
 
     def set(self, **values: float) -> None:
-        if values:
-            self.fmu.setReal([self.vr[k] for k in values], list(values.values()))
+        """Sets Real variables with fmi2SetReal, Integer and Enumeration ones with fmi2SetInteger."""
+        integers = {k: v for k, v in values.items() if self.kinds[k] in ("Integer", "Enumeration")}
+        reals = {k: v for k, v in values.items() if k not in integers}
+        if reals:
+            self.fmu.setReal([self.vr[k] for k in reals], list(reals.values()))
+        if integers:
+            self.fmu.setInteger([self.vr[k] for k in integers], [int(v) for v in integers.values()])
 
     def get(self, *names: str) -> list[float]:
         return self.fmu.getReal([self.vr[k] for k in names])
@@ -1068,11 +1079,18 @@ def test_gross_errors_are_flagged_and_the_load_stays_within_its_sigma(fault, new
     # While the fault lasts, only corrupted samples are rejected. (After a
     # drift the input may stay out for a while: the state it pulled while left
     # out comes back slowly; kalfmu s1-faults measures it over 60 s.)
-    during = np.arange(len(z)) <= np.max(np.nonzero(bad.any(axis=1))[0])
-    assert not np.any(newly_rejected & ~bad.any(axis=1) & during), "a good sample rejected"
+    during = np.arange(len(z)) <= np.max(np.nonzero(bad.any(axis=1))[0]) + 1
+    # A spike on z2_ddot, which only the load drives, is rejected one sample late,
+    # by the review of the jump it might have been (docs/supervisor.md).
+    reviewed = np.roll(bad.any(axis=1), 1)
+    assert not np.any(newly_rejected & ~bad.any(axis=1) & ~reviewed & during), "a good sample rejected"
     if fault == "spikes":
         assert rejected[-1] == 4 and not faults.any()
-        assert np.array_equal(newly_rejected, bad.any(axis=1))
+        # Each spike is rejected at its sample (z1_ddot, which z2_ddot contradicts)
+        # or at the next (z2_ddot, once the review has told it from a load step).
+        spiked = bad.any(axis=1)
+        assert np.array_equal(newly_rejected & ~spiked, newly_rejected & reviewed)
+        assert all(newly_rejected[k] or newly_rejected[k + 1] for k in np.nonzero(spiked)[0])
     elif fault == "saturation":
         # Isolated peaks clipped by little (59 samples, most within the gate's
         # width): what is rejected is clipped, and the load does not stray.
@@ -1177,3 +1195,14 @@ def test_every_measurement_has_a_status_output_and_on_clean_data_every_status_is
         assert slave.fmu.getInteger(vrs) == expected, f"after the inputs of sample {k}"
         slave.step()
         assert slave.fmu.getInteger(vrs) == expected, f"after the step from sample {k}"
+
+
+def test_the_adaptation_is_an_output_and_can_be_switched_off(s1_fmu, s1_table, model_description):
+    """By default the FMU adapts its Q: `process_noise_scale` moves from 1 and
+    stays inside its bounds; with `adaptation_window = 0` it stays 1 throughout."""
+    adapted, _ = simulate_s1(s1_fmu, s1_table, model_description)
+    fixed, _ = simulate_s1(s1_fmu, s1_table, model_description, {"adaptation_window": 0})
+    scale = adapted["process_noise_scale"]
+    assert np.all((scale >= 1e-2) & (scale <= 1e2))
+    assert np.max(np.abs(np.log(scale))) > 0.05
+    assert np.all(fixed["process_noise_scale"] == 1.0)

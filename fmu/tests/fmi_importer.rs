@@ -473,10 +473,10 @@ fn s5_flight(s: &Setup, n: usize, dt: f64, seed: u64) -> (Vec<Vec<f64>>, Vec<Vec
 /// Measured accelerations of `m` inputs about the static equilibrium (the
 /// models' coordinates): per input a seeded sum of four sines plus white noise
 /// of 0.01·(i + 1) m/s²; every 97th sample of the second input is missing (NaN).
-/// The supervisor with its defaults.
+/// The supervisor with the FMU's defaults.
 fn default_supervisor(s: &Setup) -> Supervisor {
     let n = s.reference_filter().state_dim();
-    Supervisor::new(SupervisorSettings::default(), s.inputs().len())
+    Supervisor::new(s.descriptor.supervision, s.inputs().len())
         .and_then(|supervisor| supervisor.with_jump_states(n, s.descriptor.unknown_inputs))
         .unwrap()
 }
