@@ -153,6 +153,63 @@ impl<M: Model> Core<M> {
         }
     }
 
+    /// [`StateEstimator::mix_with`](crate::StateEstimator::mix_with) for a
+    /// filter that keeps `P` itself (`p`; `scratch` of its size takes the
+    /// mixture and is swapped in once it is finite).
+    pub fn mix_covariance(
+        &mut self,
+        kind: crate::filter::FilterKind,
+        p: &mut nalgebra::DMatrix<f64>,
+        scratch: &mut nalgebra::DMatrix<f64>,
+        other: &crate::filter::Snapshot,
+        weight: f64,
+    ) -> Result<(), FilterError> {
+        let other_p = self.mix_difference(kind, other, weight)?;
+        let n = self.n();
+        let spread = weight * (1.0 - weight);
+        let d = self.x_next.as_slice();
+        let mixed = scratch.as_mut_slice();
+        for j in 0..n {
+            for i in 0..n {
+                let k = j * n + i;
+                mixed[k] = weight * p.as_slice()[k] + (1.0 - weight) * other_p[k] + spread * d[i] * d[j];
+            }
+        }
+        crate::filter::core::ensure_finite(
+            scratch.as_slice(),
+            crate::error::Stage::Update,
+            "covariance P of the mixture",
+        )?;
+        std::mem::swap(p, scratch);
+        self.mix_mean(other, weight);
+        Ok(())
+    }
+
+    /// [`StateEstimator::add_process_noise`](crate::StateEstimator::add_process_noise)
+    /// for a filter that keeps `P` itself (`scratch` of its size takes the sum
+    /// and is swapped in once it is finite).
+    pub fn add_process_noise_to(
+        &self,
+        p: &mut nalgebra::DMatrix<f64>,
+        scratch: &mut nalgebra::DMatrix<f64>,
+        factor: f64,
+        states: &[bool],
+    ) -> Result<(), FilterError> {
+        let n = self.n();
+        crate::filter::check_process_noise_factor(factor, states, n)?;
+        let q = self.noise.q();
+        scratch.copy_from(p);
+        for j in (0..n).filter(|&j| crate::filter::selected(states, j)) {
+            for i in (0..n).filter(|&i| crate::filter::selected(states, i)) {
+                scratch[(i, j)] += factor * q[(i, j)];
+            }
+        }
+        let what = "covariance P with the added process noise";
+        crate::filter::core::ensure_finite(scratch.as_slice(), crate::error::Stage::Predict, what)?;
+        std::mem::swap(p, scratch);
+        Ok(())
+    }
+
     pub fn restore<'a>(
         &mut self,
         kind: crate::filter::FilterKind,

@@ -18,7 +18,7 @@ use crate::error::{FilterError, Stage};
 use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::correction::Correction;
 use crate::filter::point_blocks::PointBlocks;
-use crate::filter::{check_process_noise_factor, check_scale, selected, FilterKind, StateEstimator};
+use crate::filter::{check_scale, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
 use crate::linalg::{mul_to, symmetrize, tr_mul_add, Lanes};
 use crate::model::{Model, BLOCK_POINTS};
@@ -213,33 +213,11 @@ impl<M: Model> StateEstimator for ExtendedKalman<M> {
     }
 
     fn mix_with(&mut self, other: &crate::filter::Snapshot, weight: f64) -> Result<(), FilterError> {
-        let other_p = self.core.mix_difference(FilterKind::Ekf, other, weight)?;
-        let n = self.core.n();
-        let spread = weight * (1.0 - weight);
-        let d = self.core.x_next.as_slice();
-        let (p, mixed) = (self.p.as_slice(), self.p_next.as_mut_slice());
-        for j in 0..n {
-            for i in 0..n {
-                let k = j * n + i;
-                mixed[k] = weight * p[k] + (1.0 - weight) * other_p[k] + spread * d[i] * d[j];
-            }
-        }
-        ensure_finite(self.p_next.as_slice(), Stage::Update, "covariance P of the mixture")?;
-        std::mem::swap(&mut self.p, &mut self.p_next);
-        self.core.mix_mean(other, weight);
-        Ok(())
+        self.core.mix_covariance(FilterKind::Ekf, &mut self.p, &mut self.p_next, other, weight)
     }
 
     fn add_process_noise(&mut self, factor: f64, states: &[bool]) -> Result<(), FilterError> {
-        let n = self.core.n();
-        check_process_noise_factor(factor, states, n)?;
-        let q = self.core.noise.q();
-        for j in (0..n).filter(|&j| selected(states, j)) {
-            for i in (0..n).filter(|&i| selected(states, i)) {
-                self.p[(i, j)] += factor * q[(i, j)];
-            }
-        }
-        ensure_finite(self.p.as_slice(), Stage::Predict, "covariance P with the added process noise")
+        self.core.add_process_noise_to(&mut self.p, &mut self.p_next, factor, states)
     }
 
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {
