@@ -17,7 +17,9 @@
 //!
 //! A row left out is exactly a missing one. Until the gate has left out a row
 //! of its own (implausible ones aside), a failure may instead call for a
-//! re-acquisition (see `reacquisition.rs`).
+//! re-acquisition (see `reacquisition.rs`) or be explained by a jump of the
+//! unknown inputs (see `jump.rs`); a jump under review from the last sample is
+//! decided before any pass.
 
 use super::jump::empty_snapshot;
 use super::outcome::{Outcome, RowOutcome};

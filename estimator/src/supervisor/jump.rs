@@ -79,9 +79,10 @@ pub(super) fn empty_snapshot() -> Snapshot {
 }
 
 impl Supervisor {
-    /// Tries the jump hypothesis on a failing first pass (`before` restored
-    /// nowhere yet). Returns whether a jump was taken; when not, the filter
-    /// holds the belief before the gate and nothing of the outcome changed.
+    /// Tries the jump hypothesis on a failing pass (`work` holds its rows,
+    /// ratios and variances; `work.before` the belief before the gate).
+    /// Returns whether a jump was taken; when not, the filter holds the belief
+    /// before the gate and neither the outcome nor `z_gated` changed.
     pub(super) fn try_jump(
         &mut self,
         filter: &mut dyn StateEstimator,
