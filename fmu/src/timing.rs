@@ -411,11 +411,7 @@ impl Estimation {
                 Some((z, u)) if feedthrough => {
                     // The update at t with the controls of t (rule 5), with the Q
                     // of a sample: a jump's review predicts over one.
-                    if self.reader_interval != self.sample_time {
-                        let noise = noise_over(self.sample_time)?;
-                        self.reader.set_noise(noise).map_err(|e| e.to_string())?;
-                        self.reader_interval = self.sample_time;
-                    }
+                    self.reader_noise_over(self.sample_time, noise_over)?;
                     self.load_reader(Some(u))?;
                     self.read_controls.copy_from_slice(u);
                     let nis = match self.supervised.preview(self.reader.as_mut(), z) {
@@ -452,11 +448,7 @@ impl Estimation {
                     self.current_sample()
                 ));
             }
-            if dt != self.reader_interval {
-                let noise = noise_over(dt)?;
-                self.reader.set_noise(noise).map_err(|e| e.to_string())?;
-                self.reader_interval = dt;
-            }
+            self.reader_noise_over(dt, noise_over)?;
             // The prediction keeps the controls in force at the current sample
             // (and the adapted scale on Q, which the reader takes here).
             self.load_reader(None)?;
@@ -489,6 +481,16 @@ impl Estimation {
             healthy: supervisor.healthy(),
             process_noise_scale: supervisor.process_noise_scale(),
         }
+    }
+
+    /// Gives the reader the noise of a prediction over `dt` (built by
+    /// `noise_over`), unless it has it already.
+    fn reader_noise_over(&mut self, dt: f64, noise_over: &dyn Fn(f64) -> Result<Noise, String>) -> Result<(), String> {
+        if dt != self.reader_interval {
+            self.reader.set_noise(noise_over(dt)?).map_err(|e| e.to_string())?;
+            self.reader_interval = dt;
+        }
+        Ok(())
     }
 
     /// Copies the filter's belief and its scale on `Q` into the reader, holding

@@ -9,4 +9,4 @@ pub mod s1;
 pub mod s2;
 pub mod s4;
 pub mod s5;
-pub mod shard;
+pub use shard;

@@ -16,7 +16,7 @@
 //! Around it: reading a log ([`log_input`]), the results as FMU start values in an SSP
 //! parameter-value file ([`ssv`], [SSP1]) and as `NAME=VALUE` assignments
 //! ([`assignment`]), the NIS consistency band ([`consistency`]), the report
-//! ([`report`]) and `--shard K/N` ([`shard`]). The command is `kalfmu-tune`
+//! ([`report`]) and `--shard K/N` (the `shard` crate the sweeps use). The command is `kalfmu-tune`
 //! (`src/main.rs`, `docs/tuning.md`).
 
 pub mod assignment;
@@ -29,7 +29,6 @@ pub mod log_input;
 pub mod optimise;
 pub mod record;
 pub mod report;
-pub mod shard;
 pub mod ssv;
 
 pub use assignment::Assignment;

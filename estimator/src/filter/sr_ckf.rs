@@ -357,6 +357,17 @@ impl<M: Model> SquareRootCubature<M> {
 
     /// Makes the new factor (by rows, in `s_t_next`) the filter's `S`.
     #[inline(always)]
+    /// `S ← Tria` of the predict compound as filled (by `add_process_noise`
+    /// or `mix_with`, between steps), once it is finite; on error `S` is as it was.
+    fn take_compound_root(&mut self, stage: Stage, what: &'static str) -> Result<(), FilterError> {
+        let n = self.core.n();
+        self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
+        ensure_finite(self.s_t_next.as_slice(), stage, what)?;
+        std::mem::swap(&mut self.s_t, &mut self.s_t_next);
+        self.s_t.transpose_to(&mut self.s);
+        Ok(())
+    }
+
     fn commit_factor<L: Lanes>(&mut self, lanes: L) {
         let n = self.core.n();
         std::mem::swap(&mut self.s_t, &mut self.s_t_next);
@@ -422,10 +433,7 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
             column[2 * n..].fill(0.0);
             column[2 * n] = c * d_r;
         }
-        self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
-        ensure_finite(self.s_t_next.as_slice(), Stage::Update, "square-root covariance S of the mixture")?;
-        std::mem::swap(&mut self.s_t, &mut self.s_t_next);
-        self.s_t.transpose_to(&mut self.s);
+        self.take_compound_root(Stage::Update, "square-root covariance S of the mixture")?;
         self.core.mix_mean(other, weight);
         Ok(())
     }
@@ -446,15 +454,7 @@ impl<M: Model> StateEstimator for SquareRootCubature<M> {
             }
             column[2 * n..].fill(0.0);
         }
-        self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
-        ensure_finite(
-            self.s_t_next.as_slice(),
-            Stage::Predict,
-            "square-root covariance S with the added process noise",
-        )?;
-        std::mem::swap(&mut self.s_t, &mut self.s_t_next);
-        self.s_t.transpose_to(&mut self.s);
-        Ok(())
+        self.take_compound_root(Stage::Predict, "square-root covariance S with the added process noise")
     }
 
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError> {

@@ -149,6 +149,7 @@ impl Supervisor {
                 self.work.z_gated[r] = f64::NAN;
             }
         }
+        let mut settled = false;
         for _ in 0..2 {
             filter.restore(&self.work.before)?;
             let jumped = filter
@@ -171,17 +172,17 @@ impl Supervisor {
                 }
             }
             if !again {
+                settled = true;
                 break;
             }
         }
-        let innovation = filter.innovation();
-        let threshold = self.thresholds.row;
-        if innovation.rows().iter().any(|&r| fails(innovation, r, threshold)) || !self.work.explained.contains(&true) {
-            // Nothing the jump explains is left: it is no jump.
+        if !settled || !self.work.explained.contains(&true) {
+            // Rows still fail from P + c·Q, or nothing the jump explains is left: it is no jump.
             filter.restore(&self.work.before)?;
             self.restore_gated();
             return Ok(false);
         }
+        let innovation = filter.innovation();
         (self.pending.nis, self.pending.dof) = (innovation.nis(), innovation.rows_used());
         let alone = self.work.explained.iter().filter(|&&e| e).count() == 1;
         if alone {

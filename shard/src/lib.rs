@@ -1,5 +1,7 @@
-//! Independent runs (sweeps, fault studies, Monte Carlo) spread over the machine's cores,
-//! and `--shard K/N` so that a batch system can spread them over machines.
+//! Independent runs (the studies' sweeps, fault studies and Monte Carlo; `kalfmu-tune`'s
+//! logs) spread over the machine's cores, and `--shard K/N` so that a batch system can
+//! spread them over machines. Its own crate so that a command need not depend on the
+//! studies (and their Rerun recordings) to share it.
 
 use rayon::prelude::*;
 
@@ -20,6 +22,11 @@ impl Shard {
     /// Whether run `j` (0-based) is in this shard.
     pub fn contains(&self, j: usize) -> bool {
         j % self.count == self.index - 1
+    }
+
+    /// The jobs of `jobs` in this shard, in order.
+    pub fn select<T: Clone>(&self, jobs: &[T]) -> Vec<T> {
+        jobs.iter().enumerate().filter(|(j, _)| self.contains(*j)).map(|(_, job)| job.clone()).collect()
     }
 }
 
@@ -61,6 +68,10 @@ mod tests {
         assert_eq!(seen, jobs.iter().map(|&j| (j, j * 10)).collect::<Vec<_>>());
         let all = run(&jobs, Shard::ALL, |j| *j);
         assert!(all.windows(2).all(|w| w[0].0 < w[1].0), "in the jobs' order");
+        let selected: Vec<usize> = (1..=4).flat_map(|k| Shard { index: k, count: 4 }.select(&jobs)).collect();
+        assert_eq!(selected.len(), jobs.len(), "select takes the same share as run");
+        assert!(Shard { index: 2, count: 4 }.select(&jobs).iter().all(|&j| j % 4 == 1), "every N-th job from the K-th");
+        assert_eq!(Shard::ALL.select(&jobs), jobs);
         for bad in ["0/2", "3/2", "1/0", "x/2", "2"] {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
