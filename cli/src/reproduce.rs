@@ -74,6 +74,7 @@ use std::path::PathBuf;
 
 use anyhow::bail;
 
+use start_values::StartValues;
 use studies::{s1, s2, s4, s5};
 
 /// Command-line arguments of `kalfmu reproduce`.
@@ -107,6 +108,10 @@ pub struct Args {
     /// Where the logs, reports and recordings go.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
+    /// Start values of the study's FMU over the study's own settings (they belong to one
+    /// FMU, so they need --study).
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// The studies and whether they are built.
@@ -123,6 +128,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let wanted = args.study.to_ascii_lowercase();
     if wanted != "all" && !STUDIES.iter().any(|(id, _, _)| *id == wanted) {
         bail!("unknown study '{}'; expected one of s1, s2, s3, s4, s5, all", args.study);
+    }
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    if !start_values.is_empty() && wanted == "all" {
+        bail!("--set and --values give one FMU's parameters: name its study with --study");
     }
     let mut failures = 0;
     for (id, title, built) in STUDIES {
@@ -146,7 +155,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     ..truth::s1::Settings::default()
                 };
                 settings.validate().map_err(anyhow::Error::msg)?;
-                s1::reproduce::report(&settings, &args.fmu_dir, &args.out)?
+                s1::reproduce::report(&settings, &start_values, &args.fmu_dir, &args.out)?
             }
             "s2" => {
                 let settings = truth::s2::cases::Settings {
@@ -162,13 +171,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     ..truth::s2::cases::Settings::default()
                 };
                 settings.validate().map_err(anyhow::Error::msg)?;
-                s2::reproduce::report(&settings, &args.fmu_dir, &args.out)?
+                s2::reproduce::report(&settings, &start_values, &args.fmu_dir, &args.out)?
             }
-            "s4" => s4::reproduce::report(args.seed, args.quick, &args.fmu_dir, &args.out)?,
+            "s4" => s4::reproduce::report(args.seed, args.quick, &start_values, &args.fmu_dir, &args.out)?,
             "s5" => {
                 let settings =
                     truth::s5::flight::Settings { seed: args.seed, ..truth::s5::flight::Settings::default() };
-                s5::reproduce::report(&settings, &args.fmu_dir, &args.out, &args.python)?
+                s5::reproduce::report(&settings, &start_values, &args.fmu_dir, &args.out, &args.python)?
             }
             _ => unreachable!("every built study has a table"),
         };

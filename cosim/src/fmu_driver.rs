@@ -11,13 +11,26 @@ use anyhow::{anyhow, bail, Context};
 use estimator::FilterKind;
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
+use fmi::schema::fmi2::{Causality, ScalarVariableElement};
 use fmi::traits::{FmiImport, FmiInstance};
+use start_values::StartValues;
 
 /// An imported FMU: its variables by name, and instances made from it.
 pub struct ImportedFmu {
     import: Fmi2Import,
     variables: HashMap<String, u32>,
+    parameters: HashMap<String, ParameterType>,
     units: HashMap<String, String>,
+}
+
+/// The type of a parameter, which says which `fmi2Set…` takes its value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ParameterType {
+    Real,
+    /// Integer or Enumeration.
+    Integer,
+    Boolean,
+    String,
 }
 
 /// The FMU's enumeration value of a filter kind (`FilterKind` in every modelDescription:
@@ -44,15 +57,26 @@ impl ImportedFmu {
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let import: Fmi2Import =
             fmi::import::from_path(path).with_context(|| format!("cannot import the FMU {}", path.display()))?;
-        let variables = import
-            .model_description()
+        let description = import.model_description();
+        let variables =
+            description.model_variables.variables.iter().map(|v| (v.name.clone(), v.value_reference)).collect();
+        let parameters = description
             .model_variables
             .variables
             .iter()
-            .map(|v| (v.name.clone(), v.value_reference))
+            .filter(|v| v.causality == Causality::Parameter)
+            .map(|v| {
+                let kind = match v.elem {
+                    ScalarVariableElement::Real(_) => ParameterType::Real,
+                    ScalarVariableElement::Integer(_) | ScalarVariableElement::Enumeration => ParameterType::Integer,
+                    ScalarVariableElement::Boolean(_) => ParameterType::Boolean,
+                    ScalarVariableElement::String => ParameterType::String,
+                };
+                (v.name.clone(), kind)
+            })
             .collect();
         let units = units_of(path)?;
-        Ok(Self { import, variables, units })
+        Ok(Self { import, variables, parameters, units })
     }
 
     /// The value reference of the variable `name`.
@@ -66,7 +90,8 @@ impl ImportedFmu {
     }
 
     /// A new instance, initialised from `start_time` to `stop_time` with these
-    /// parameters (Reals and Integers/Enumerations by name).
+    /// parameters (Reals and Integers/Enumerations by name), then the user's
+    /// `start_values` over them, each set by its parameter's type.
     pub fn instantiate(
         &self,
         name: &str,
@@ -74,7 +99,11 @@ impl ImportedFmu {
         stop_time: f64,
         reals: &[(&str, f64)],
         integers: &[(&str, i32)],
+        start_values: &StartValues,
     ) -> anyhow::Result<Instance> {
+        // Checked before anything is instantiated, so that a misspelt name costs no run.
+        let typed =
+            start_values.iter().map(|(n, v)| self.typed_start_value(n, v)).collect::<anyhow::Result<Vec<_>>>()?;
         let mut cs = self.import.instantiate_cs(name, false, true).map_err(|e| anyhow!("fmi2Instantiate: {e}"))?;
         FmiInstance::enter_initialization_mode(&mut cs, None, start_time, Some(stop_time))
             .map_err(|e| anyhow!("fmi2SetupExperiment/EnterInitializationMode: {e}"))?;
@@ -92,9 +121,56 @@ impl ImportedFmu {
             .into_iter()
             .unzip();
         Common::set_integer(&mut cs, &vrs, &values).map_err(|e| anyhow!("fmi2SetInteger of the parameters: {e}"))?;
+        for (vr, name, value) in typed {
+            match value {
+                Typed::Real(v) => Common::set_real(&mut cs, &[vr], &[v]).map(|_| ()),
+                Typed::Integer(v) => Common::set_integer(&mut cs, &[vr], &[v]).map(|_| ()),
+                Typed::Boolean(v) => Common::set_boolean(&mut cs, &[vr], &[v]).map(|_| ()),
+            }
+            .map_err(|e| anyhow!("start value {name}: the FMU refused it: {e}"))?;
+        }
         Common::exit_initialization_mode(&mut cs).map_err(|e| anyhow!("fmi2ExitInitializationMode: {e}"))?;
         Ok(Instance { cs, time: start_time })
     }
+
+    /// Whether the FMU takes every one of `start_values`: an error names the first it does
+    /// not (no such parameter, a fraction for an Integer, …), before anything runs.
+    pub fn check_start_values(&self, start_values: &StartValues) -> anyhow::Result<()> {
+        start_values.iter().try_for_each(|(n, v)| self.typed_start_value(n, v).map(|_| ()))
+    }
+
+    /// The value reference of the parameter `name` and `value` as its type has it; an error
+    /// names what is wrong (no such parameter, a fraction for an Integer, …).
+    fn typed_start_value<'n>(&self, name: &'n str, value: f64) -> anyhow::Result<(u32, &'n str, Typed)> {
+        let kind = self.parameters.get(name).ok_or_else(|| match self.variables.contains_key(name) {
+            true => anyhow!("start value {name}: '{name}' is not a parameter of the FMU"),
+            false => anyhow!("start value {name}: the FMU has no variable '{name}'"),
+        })?;
+        let integral = || -> anyhow::Result<i32> {
+            if value.fract() != 0.0 || value.abs() > i32::MAX as f64 {
+                bail!("start value {name}: {value} is not an Integer, which the parameter is");
+            }
+            Ok(value as i32)
+        };
+        let typed = match kind {
+            ParameterType::Real => Typed::Real(value),
+            ParameterType::Integer => Typed::Integer(integral()?),
+            ParameterType::Boolean => match value {
+                0.0 => Typed::Boolean(0),
+                1.0 => Typed::Boolean(1),
+                _ => bail!("start value {name}: a Boolean is 0 or 1, got {value}"),
+            },
+            ParameterType::String => bail!("start value {name}: String parameters are not taken"),
+        };
+        Ok((self.vr(name)?, name, typed))
+    }
+}
+
+/// A start value as the parameter's type has it.
+enum Typed {
+    Real(f64),
+    Integer(i32),
+    Boolean(i32),
 }
 
 /// A running instance.

@@ -14,6 +14,8 @@ use anyhow::Context;
 use estimator::FilterKind;
 use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
 
+use start_values::StartValues;
+
 use crate::fmu_driver::{filter_enumeration, ImportedFmu};
 
 /// What a study gives the FMU and logs beside it.
@@ -26,6 +28,8 @@ pub struct Setup<'a> {
     pub parameters: &'a [(&'static str, f64)],
     /// The Integer parameters it is set, the filter aside.
     pub integers: &'a [(&'static str, i32)],
+    /// The user's start values, set over the study's parameters (`--set`, `--values`).
+    pub start_values: &'a StartValues,
     /// The inputs, in the order of the measurement vectors, with their descriptions.
     pub inputs: &'a [(&'static str, &'static str)],
     /// The Real outputs logged on `/estimate` and `/prediction`.
@@ -59,7 +63,7 @@ pub fn run(
     log: &Path,
     mut progress: impl FnMut(usize),
 ) -> anyhow::Result<Counts> {
-    let Setup { fmu, filter, parameters, integers, inputs, outputs, .. } = *setup;
+    let Setup { fmu, filter, parameters, integers, start_values, inputs, outputs, .. } = *setup;
     let (first, last) = (times[0], times[times.len() - 1]);
     let study = setup.metadata.get("study").cloned().unwrap_or_default();
     let case = setup.metadata.get("case").cloned().unwrap_or_default();
@@ -69,13 +73,15 @@ pub fn run(
         last,
         parameters,
         &[&[("filter", filter_enumeration(filter))], integers].concat(),
+        start_values,
     )?;
     let input_vrs: Vec<u32> = inputs.iter().map(|(n, _)| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
     let output_vrs: Vec<u32> = outputs.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
     let counters = [fmu.vr("skipped_measurements")?, fmu.vr("rejected_measurements")?];
 
     let mut metadata = setup.metadata.clone();
-    let parameters_json = parameters.iter().map(|(n, v)| (n.to_string(), *v)).collect::<BTreeMap<_, _>>();
+    // The values in force: the study's, then the user's over them.
+    let parameters_json = start_values.over(parameters).into_iter().collect::<BTreeMap<_, _>>();
     metadata.insert("filter".into(), filter.name().into());
     metadata.insert("parameters".into(), serde_json::to_string(&parameters_json)?);
     metadata.insert("software".into(), format!("kalfmu {}", env!("CARGO_PKG_VERSION")));

@@ -14,12 +14,11 @@
 //! test model and an FMU's estimator table ([`fmu_estimator`]) go through the same code.
 //!
 //! Around it: reading a log ([`log_input`]), the results as FMU start values in an SSP
-//! parameter-value file ([`ssv`], [SSP1]) and as `NAME=VALUE` assignments
-//! ([`assignment`]), the NIS consistency band ([`consistency`]), the report
+//! parameter-value file and as `NAME=VALUE` assignments (the `start-values` crate,
+//! which every command that runs an estimator reads them with), the NIS consistency band ([`consistency`]), the report
 //! ([`report`]) and `--shard K/N` (the `shard` crate the sweeps use). The command is `kalfmu-tune`
 //! (`src/main.rs`, `docs/tuning.md`).
 
-pub mod assignment;
 pub mod consistency;
 pub mod fit;
 pub mod fmu_estimator;
@@ -29,11 +28,10 @@ pub mod log_input;
 pub mod optimise;
 pub mod record;
 pub mod report;
-pub mod ssv;
 
-pub use assignment::Assignment;
 pub use fit::{fit, Fit, FitOptions};
 pub use fmu_estimator::FmuEstimator;
 pub use likelihood::{Evaluation, FilterFactory, Likelihood, RobustCap};
 pub use record::Record;
 pub use shard::Shard;
+pub use start_values::{ssv, Assignment};

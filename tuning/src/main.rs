@@ -13,7 +13,7 @@ use log_format::read::Run;
 use rayon::prelude::*;
 use tuning::likelihood::RobustCap;
 use tuning::optimise::SearchOptions;
-use tuning::{fit, log_input, report, ssv, Assignment, FitOptions, FmuEstimator, Likelihood, Shard};
+use tuning::{fit, log_input, report, ssv, FitOptions, FmuEstimator, Likelihood, Shard};
 
 /// Fit an estimator FMU's noise parameters to recorded logs (tuning from data).
 #[derive(Parser, Debug)]
@@ -28,12 +28,10 @@ struct Cli {
     /// The parameters to fit, comma-separated; default: the FMU's tunable noise parameters.
     #[arg(long, value_delimiter = ',')]
     fit: Vec<String>,
-    /// A parameter value (start of a fitted one, or a fixed one such as the vehicle's data).
-    #[arg(long = "set", value_name = "NAME=VALUE")]
-    set: Vec<Assignment>,
-    /// Parameter values from an SSV file (applied before --set).
-    #[arg(long, value_name = "FILE.ssv")]
-    values: Vec<PathBuf>,
+    /// Parameter values (starts of fitted ones, fixed ones such as the vehicle's data):
+    /// SSV files, then single values.
+    #[command(flatten)]
+    start_values: start_values::Options,
     /// The filter method (CKF, SRCKF, SVD-CKF, UKF, EKF); default: the FMU's default.
     #[arg(long)]
     filter: Option<String>,
@@ -168,13 +166,9 @@ fn tune(cli: &Cli, identifier: &str, logs: &[&Log]) -> anyhow::Result<String> {
             }
         }
     }
-    for file in &cli.values {
-        for (name, value) in ssv::read(file).map_err(anyhow::Error::msg)?.values() {
-            estimator.set(&name, value).map_err(anyhow::Error::msg).with_context(|| file.display().to_string())?;
-        }
-    }
-    for a in &cli.set {
-        estimator.set(&a.name, a.value).map_err(anyhow::Error::msg).context("--set")?;
+    let given = start_values::StartValues::from_options(&cli.start_values).map_err(anyhow::Error::msg)?;
+    for (name, value) in given.iter() {
+        estimator.set(name, value).map_err(anyhow::Error::msg).context("--values/--set")?;
     }
     if let Some(name) = &cli.filter {
         let kind: FilterKind = name.parse().map_err(|e: estimator::FilterError| anyhow::anyhow!("--filter: {e}"))?;

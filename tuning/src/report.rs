@@ -6,12 +6,12 @@ use std::fmt::Write as _;
 
 use kalfmu_fmu::variables::UNITS;
 
-use crate::assignment::Assignment;
 use crate::consistency::NisBand;
 use crate::fit::Fit;
 use crate::intervals::SetAside;
 use crate::likelihood::RobustCap;
-use crate::ssv::{Parameter, ParameterSet, Unit};
+use start_values::ssv::{Parameter, ParameterSet, Unit};
+use start_values::Assignment;
 
 /// A number in 4 significant digits, exponent form when large or small.
 fn number(v: f64) -> String {

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use estimator::FilterKind;
 use log_format::write::SignalSpec;
+use start_values::StartValues;
 
 use super::Tuning;
 use cosim::fmu_driver::ImportedFmu;
@@ -79,6 +80,8 @@ pub struct Simulated<'a> {
     pub truth: &'a Truth,
     /// The noisy accelerations.
     pub measurements: &'a Measurements,
+    /// The user's start values over the study's parameters.
+    pub start_values: &'a StartValues,
 }
 
 /// Runs `kind` on a simulated case through the FMU and writes the log to
@@ -90,7 +93,7 @@ pub fn run(
     log: &Path,
     progress: &dyn Fn(),
 ) -> anyhow::Result<()> {
-    let Simulated { case, settings, truth, measurements } = *sim;
+    let Simulated { case, settings, truth, measurements, start_values } = *sim;
     let params = parameters(case, settings, measurements);
     let truth_names = ["F", "z1", "z2", "z1_dot", "z2_dot", "F_dot"];
     let truth_specs: Vec<SignalSpec> =
@@ -106,6 +109,7 @@ pub fn run(
         filter: kind,
         parameters: &params,
         integers: &[("rk4_substeps", 1)],
+        start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
         truth: &truth_specs,

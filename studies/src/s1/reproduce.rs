@@ -7,6 +7,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use start_values::StartValues;
+
 use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{analyse, Options, PairReport, Report};
 use anyhow::Context;
@@ -139,8 +141,9 @@ const UNITS: [(&str, &str); 8] = [
 
 /// Runs S1 through its FMU, prints the table and writes it as `table.json` in `out/s1`;
 /// returns the number of failed runs.
-pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
+pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, "kalfmu_s1_load")?;
+    fmu.check_start_values(start_values)?;
     let dir = out.join("s1");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     println!(
@@ -207,7 +210,13 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         for kind in FilterKind::ALL {
             bar.set_message(format!("{case} {kind}"));
             let log = log_path(&case_stem, kind);
-            let sim = super::fmu_run::Simulated { case: &case, settings, truth: &truth, measurements: &measurements };
+            let sim = super::fmu_run::Simulated {
+                case: &case,
+                settings,
+                truth: &truth,
+                measurements: &measurements,
+                start_values,
+            };
             let result = super::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1))
                 .and_then(|()| Ok(read_log(&log)?))
                 .map(|run| {

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use estimator::FilterKind;
 use log_format::write::SignalSpec;
+use start_values::StartValues;
 
 use super::study::Tuning;
 use cosim::fmu_driver::ImportedFmu;
@@ -80,11 +81,13 @@ pub struct Simulated<'a> {
     pub measurements: &'a Measurements,
     /// The FMU's parameters ([`parameters`]).
     pub parameters: &'a [(&'static str, f64)],
+    /// The user's start values over them.
+    pub start_values: &'a StartValues,
 }
 
 /// Runs `kind` on a simulated case through the FMU and writes the log to `log`.
 pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path) -> anyhow::Result<Counts> {
-    let Simulated { case, settings, truth, measurements, parameters } = *sim;
+    let Simulated { case, settings, truth, measurements, parameters, start_values } = *sim;
     let forces: Vec<SignalSpec> = OUTPUTS[..4]
         .iter()
         .map(|n| {
@@ -108,6 +111,7 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         filter: kind,
         parameters,
         integers: &[("rk4_substeps", 1)],
+        start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
         truth: &forces,

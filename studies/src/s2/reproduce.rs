@@ -30,6 +30,8 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use start_values::StartValues;
+
 use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{analyse, Options, PairReport};
 use anyhow::Context;
@@ -282,8 +284,9 @@ const PAPER_SOURCE: &str = "SRCKF figures of the paper (Chen et al. 2025) for wh
 
 /// Runs S2 through its FMU, prints the tables and writes them as `table.json` in
 /// `out/s2`; returns the number of failed runs.
-pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
+pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    fmu.check_start_values(start_values)?;
     let dir = out.join("s2");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let truth_car = as_built();
@@ -369,7 +372,14 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path) -> anyhow::Result
         let measurements = measure(&truth, settings.noise_fraction, settings.seed);
         let tuning = Tuning::new(settings, measurements.noise_std);
         let parameters = fmu_run::parameters(&catalogue, truth_car.static_wheel_load(), &tuning);
-        let sim = Simulated { case, settings, truth: &truth, measurements: &measurements, parameters: &parameters };
+        let sim = Simulated {
+            case,
+            settings,
+            truth: &truth,
+            measurements: &measurements,
+            parameters: &parameters,
+            start_values,
+        };
         let stem = dir.join(case.name());
         let mut runs = Vec::new();
         let mut ran: Vec<(FilterKind, Counts, f64)> = Vec::new();

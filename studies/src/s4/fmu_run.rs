@@ -1,26 +1,27 @@
 //! One S4 run through the packaged estimator FMU (`kalfmu_s4_maglev`), driven as the
 //! train's computer drives it ([`cosim::master`]): at each telegram the four
 //! channels' positions (NaN where a telegram did not arrive; a resent one as it came) and
-//! no marker. The user sets the channels' noise, the motion's jerk and the prior position
-//! from the first telegrams; the rest is the FMU's defaults, the study's set-up. The log
-//! has the true position and speed.
+//! no marker. The user sets the study's tuning (the channels' noise, the motion's jerk,
+//! the prior, its position from the first telegrams); the rest is the FMU's defaults, the
+//! study's set-up, and the user's start values go over both. The log has the true
+//! position and speed.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use estimator::FilterKind;
 use log_format::write::SignalSpec;
+use start_values::StartValues;
 
-use super::ours::Tuning;
+use super::ours::{first_position, Tuning, CHANNEL_NOISE_PARAMETERS};
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::{self, Counts, Setup};
-use truth::s4::channels::Channel;
 use truth::s4::recording::Recording;
 
 /// The FMU's identifier.
 pub const IDENTIFIER: &str = "kalfmu_s4_maglev";
 
-/// The FMU's inputs: the four channels in [`Channel::ALL`]'s order, then the marker.
+/// The FMU's inputs: the four channels in [`truth::s4::channels::Channel::ALL`]'s order, then the marker.
 const INPUTS: [(&str, &str); 5] = [
     ("P_head_left", "head-left channel's position telegram (NaN: not received)"),
     ("P_head_right", "head-right channel's position telegram (NaN: not received)"),
@@ -48,28 +49,28 @@ pub const COMPARED: [&str; 10] = [
 const OTHER_OUTPUTS: [&str; 7] =
     ["position_std", "speed_std", "acceleration", "acceleration_std", "fused_speed", "fused_speed_std", "nis"];
 
-/// What the user sets: the channels' noise, the jerk, the prior position: the first
-/// telegrams' mean less their levers, as [`super::ours::run`] starts.
+/// What the user sets: every number of `tuning` (the channels' noise, the jerk, the
+/// prior: its position by default the first telegrams' mean less their levers, as
+/// [`super::ours::run`] starts), and the recording's telegram interval as the sample time.
+/// [`Tuning::set`] takes each of these names but `sample_time`.
 pub fn parameters(recording: &Recording, tuning: &Tuning) -> Vec<(&'static str, f64)> {
-    let first = Channel::ALL.iter().map(|&c| recording.position[c as usize][0] - c.lever()).sum::<f64>() / 4.0;
     let mut p = vec![
         ("sample_time", recording.telegram_interval),
         ("jerk_intensity", tuning.jerk_intensity),
         ("offset_walk", tuning.offset_walk),
-        ("prior_position", first),
+        ("prior_position", tuning.prior_position.unwrap_or_else(|| first_position(recording))),
         ("prior_position_std", tuning.position_prior_std),
+        ("prior_speed", tuning.prior_speed),
         ("prior_speed_std", tuning.speed_prior_std),
+        ("prior_acceleration", tuning.prior_acceleration),
         ("prior_acceleration_std", tuning.acceleration_prior_std),
         ("prior_offset_std", tuning.offset_prior_std),
         ("r_marker_position_std", tuning.marker_noise_std),
-        // The library's cubature rule for the UKF, as the in-process runs have it.
-        ("ukf_alpha", 1.0),
-        ("ukf_beta", 2.0),
-        ("ukf_kappa", 0.0),
+        ("ukf_alpha", tuning.unscented.alpha),
+        ("ukf_beta", tuning.unscented.beta),
+        ("ukf_kappa", tuning.unscented.kappa),
     ];
-    for name in ["r_P_head_left_std", "r_P_head_right_std", "r_P_tail_left_std", "r_P_tail_right_std"] {
-        p.push((name, tuning.channel_noise_std));
-    }
+    p.extend(CHANNEL_NOISE_PARAMETERS.into_iter().zip(tuning.channel_noise_std));
     p
 }
 
@@ -80,6 +81,7 @@ pub fn run(
     recording: &Recording,
     tuning: &Tuning,
     case: &str,
+    start_values: &StartValues,
     log: &Path,
 ) -> anyhow::Result<Counts> {
     let parameters = parameters(recording, tuning);
@@ -101,6 +103,7 @@ pub fn run(
         filter: kind,
         parameters: &parameters,
         integers: &[],
+        start_values,
         inputs: &INPUTS,
         outputs: &outputs,
         truth: &truth,

@@ -12,6 +12,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use start_values::StartValues;
+
 use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{Options, PairReport, Report};
 use anyhow::Context;
@@ -176,8 +178,9 @@ fn comparison_figures(comparison: &Comparison) -> anyhow::Result<serde_json::Val
 
 /// Runs S4 through its FMU, prints the tables and writes them as `table.json` in `out/s4`;
 /// returns the number of failed runs.
-pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
+pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    fmu.check_start_values(start_values)?;
     let dir = out.join("s4");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     println!(
@@ -205,7 +208,7 @@ pub fn report(seed: u64, quick: bool, fmu_dir: &Path, out: &Path) -> anyhow::Res
         let mut logged = Vec::new();
         for kind in FilterKind::ALL {
             let log = log_path(&stem, kind);
-            let checked = fmu_run::run(&fmu, kind, &recording, &tuning, case, &log).and_then(|_| {
+            let checked = fmu_run::run(&fmu, kind, &recording, &tuning, case, start_values, &log).and_then(|_| {
                 let run = read_log(&log)?;
                 let through_fmu = rows_of(run.channel(ESTIMATE)?, COMPARED)?;
                 let library = ours::run(&recording, &Settings::new(kind, tuning)).map_err(anyhow::Error::msg)?;

@@ -10,6 +10,7 @@ use std::path::Path;
 
 use estimator::FilterKind;
 use log_format::write::SignalSpec;
+use start_values::StartValues;
 
 use super::study::Tuning;
 use cosim::fmu_driver::ImportedFmu;
@@ -75,6 +76,7 @@ pub fn run(
     settings: &Settings,
     truth: &Truth,
     measurements: &[[f64; 12]],
+    start_values: &StartValues,
     log: &Path,
 ) -> anyhow::Result<Counts> {
     let tuning = Tuning::new(settings.noise_scale);
@@ -92,6 +94,7 @@ pub fn run(
         filter: kind,
         parameters: &parameters,
         integers: &[("rk4_substeps", 1)],
+        start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
         truth: &coefficients,

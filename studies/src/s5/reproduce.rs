@@ -15,6 +15,8 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use start_values::StartValues;
+
 use analyzer::compare::Comparison;
 use analyzer::consistency::{Nees, Nis, NormalisedError, Reading};
 use analyzer::report::{Options, Report};
@@ -237,8 +239,15 @@ const PAPER_CLAIM: &str = "SVD-CKF within 3 % and CKF within 5 % of every coeffi
 /// Runs S5 through its FMU for both truths, prints the tables and writes them as
 /// `table.json` in `out/s5`; `python` runs the JSBSim driver. Returns the number of
 /// failed runs.
-pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) -> anyhow::Result<usize> {
+pub fn report(
+    settings: &Settings,
+    start_values: &StartValues,
+    fmu_dir: &Path,
+    out: &Path,
+    python: &Path,
+) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    fmu.check_start_values(start_values)?;
     let dir = out.join("s5");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let truth = simulate(settings);
@@ -262,16 +271,17 @@ pub fn report(settings: &Settings, fmu_dir: &Path, out: &Path, python: &Path) ->
     let mut run_failures = Vec::new();
     for kind in FilterKind::ALL {
         let log = log_path(&stem, kind);
-        let through_fmu = fmu_run::run(&fmu, kind, settings, &truth, &measurements, &log).and_then(|counts| {
-            let run = read_log(&log)?;
-            let coefficients = rows_of(run.channel(ESTIMATE)?, NAMES)?;
-            let library = run_filter(kind, &tuning, &truth, &measurements, settings.sample_time, &[])
-                .map_err(anyhow::Error::msg)?;
-            let difference = largest_difference(&coefficients, &library.coefficients)?;
-            logs.push(run);
-            let checked = Some(Checked { difference, rejected: counts.rejected });
-            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None })
-        });
+        let through_fmu =
+            fmu_run::run(&fmu, kind, settings, &truth, &measurements, start_values, &log).and_then(|counts| {
+                let run = read_log(&log)?;
+                let coefficients = rows_of(run.channel(ESTIMATE)?, NAMES)?;
+                let library = run_filter(kind, &tuning, &truth, &measurements, settings.sample_time, &[])
+                    .map_err(anyhow::Error::msg)?;
+                let difference = largest_difference(&coefficients, &library.coefficients)?;
+                logs.push(run);
+                let checked = Some(Checked { difference, rejected: counts.rejected });
+                Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None })
+            });
         match through_fmu {
             Ok(r) => runs.push(r),
             Err(e) => {

@@ -1,4 +1,4 @@
-//! Specification: an SSV file written by `tuning::ssv` is well-formed XML in the SSP 1.0
+//! Specification: an SSV file written by `start_values::ssv` is well-formed XML in the SSP 1.0
 //! parameter-value namespace, laid out as the schema has it (`ssv:ParameterSet` with
 //! `version` and `name`, `ssv:Parameters`, `ssv:Parameter name=…` each with one
 //! `ssv:Real value=…`, then `ssv:Units` of `ssc:Unit`/`ssc:BaseUnit`), and reads back to
@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use tuning::ssv::{self, Parameter, ParameterSet, Unit, COMMON_NAMESPACE, NAMESPACE};
+use start_values::ssv::{self, Parameter, ParameterSet, Unit, COMMON_NAMESPACE, NAMESPACE};
 
 fn sample_set() -> ParameterSet {
     let values = [1.56e6, 0.1 + 0.2, 5e-324, 1e300, 123_456_789.123_456_79, 3.0e-5];
