@@ -1,10 +1,11 @@
 //! The noise covariances `Q` and `R` of one filter instance, validated once and
 //! kept with a square root each (the square-root filter needs them every step).
 //!
-//! `Q` carries a scale: the filters use `s·Q₀` (root `√s·S_Q₀`) where `Q₀` is
-//! the matrix given. An online adaptation of the process noise sets `s`
-//! every sample ([`Noise::set_q_scale`]), in place and exactly (from `Q₀`,
-//! not by compounding factors).
+//! `Q` carries a scale: the filters use `D·Q₀·D` (root `D·S_Q₀`) where `Q₀` is
+//! the matrix given and `D` is `√s` on the scaled states, 1 on the others.
+//! An online adaptation of the process noise sets `s` every sample
+//! ([`Noise::set_q_scale`]), in place and exactly (from `Q₀`, not by
+//! compounding factors).
 
 use nalgebra::{DMatrix, DVector};
 
@@ -20,16 +21,18 @@ use crate::linalg::{SymmetricEigen, Tria};
 /// factorisation would fail on them).
 #[derive(Debug, Clone)]
 pub struct Noise {
-    /// `s·Q₀`.
+    /// `D·Q₀·D`.
     q: DMatrix<f64>,
     r: DMatrix<f64>,
-    /// `√s·S_Q₀`.
+    /// `D·S_Q₀`.
     q_sqrt: DMatrix<f64>,
     /// `Q₀` and `S_Q₀`, as given.
     q_given: DMatrix<f64>,
     q_sqrt_given: DMatrix<f64>,
     /// `s`.
     q_scale: f64,
+    /// The states `D` scales.
+    q_scaled: Vec<bool>,
     r_sqrt: DMatrix<f64>,
     /// `S_Rᵀ`: its columns are the rows of `S_R`, which the SRCKF copies into
     /// its compounds every step, one per used measurement row.
@@ -44,7 +47,8 @@ impl Noise {
         let r_sqrt = lower_square_root("measurement noise R", &r)?;
         let r_sqrt_t = r_sqrt.transpose();
         let (q_given, q_sqrt_given) = (q.clone(), q_sqrt.clone());
-        Ok(Self { q, r, q_sqrt, q_given, q_sqrt_given, q_scale: 1.0, r_sqrt, r_sqrt_t })
+        let q_scaled = vec![true; q.nrows()];
+        Ok(Self { q, r, q_sqrt, q_given, q_sqrt_given, q_scale: 1.0, q_scaled, r_sqrt, r_sqrt_t })
     }
 
     /// Diagonal `Q` and `R` from their diagonals (variances).
@@ -55,7 +59,7 @@ impl Noise {
         )
     }
 
-    /// `Q`: the matrix given, times [`Noise::q_scale`].
+    /// `Q`: the matrix given, with [`Noise::q_scale`] on the scaled states.
     pub fn q(&self) -> &DMatrix<f64> {
         &self.q
     }
@@ -65,23 +69,40 @@ impl Noise {
         self.q_scale
     }
 
-    /// Makes `Q` the matrix given times `scale`, in place (no allocation).
-    /// Fails, changing nothing, unless `scale` is finite and positive.
-    pub fn set_q_scale(&mut self, scale: f64) -> Result<(), FilterError> {
+    /// Puts the scale `scale` on the process noise of the states `states`
+    /// selects (`states[i]`; all when empty) and of the states whose noise
+    /// `Q₀` couples to theirs, in place (no allocation): `Q = D·Q₀·D`,
+    /// `D = √scale` on those states and 1 elsewhere, so `Q` stays positive
+    /// semi-definite and its root `D·S_Q₀` lower triangular. The coupled states
+    /// belong with them: a load's rate, driven by the same white noise as the
+    /// load, takes the load's scale. Fails, changing nothing, unless `scale` is
+    /// finite and positive and `states` is empty or one flag per state.
+    pub fn set_q_scale(&mut self, scale: f64, states: &[bool]) -> Result<(), FilterError> {
         if !(scale > 0.0 && scale.is_finite()) {
             return Err(FilterError::InvalidSetting(format!(
                 "a process-noise scale must be finite and > 0, got {scale}"
             )));
         }
-        if scale == self.q_scale {
+        let n = self.q_given.nrows();
+        if !states.is_empty() {
+            crate::error::check_len("process-noise scaled states", n, states.len())?;
+        }
+        let given = &self.q_given;
+        let scaled = |i: usize| states.is_empty() || states[i] || (0..n).any(|j| states[j] && given[(i, j)] != 0.0);
+        let unchanged = scale == self.q_scale && (0..n).all(|i| scaled(i) == self.q_scaled[i]);
+        if unchanged {
             return Ok(());
         }
-        let root = scale.sqrt();
-        for (q, given) in self.q.as_mut_slice().iter_mut().zip(self.q_given.as_slice()) {
-            *q = scale * given;
+        for i in 0..n {
+            self.q_scaled[i] = scaled(i);
         }
-        for (q, given) in self.q_sqrt.as_mut_slice().iter_mut().zip(self.q_sqrt_given.as_slice()) {
-            *q = root * given;
+        let root = scale.sqrt();
+        let d = |i: usize| if self.q_scaled[i] { root } else { 1.0 };
+        for j in 0..n {
+            for i in 0..n {
+                self.q[(i, j)] = d(i) * self.q_given[(i, j)] * d(j);
+                self.q_sqrt[(i, j)] = d(i) * self.q_sqrt_given[(i, j)];
+            }
         }
         self.q_scale = scale;
         Ok(())

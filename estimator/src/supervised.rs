@@ -181,7 +181,7 @@ impl SupervisedFilter {
     /// read shows, left pending; the filter is untouched.
     pub fn preview(&mut self, reader: &mut dyn StateEstimator, z: &[f64]) -> Result<&Outcome, FilterError> {
         // A review predicts on the reader: it must have the filter's Q.
-        reader.set_process_noise_scale(self.process_noise_scale())?;
+        self.supervisor.scale_process_noise_of(reader)?;
         self.supervisor.gate(reader, z)
     }
 
@@ -215,13 +215,19 @@ impl SupervisedFilter {
         if self.supervisor.exhausted() != was_exhausted {
             self.events.push(Event::Exhausted { exhausted: self.supervisor.exhausted(), time });
         }
-        self.filter.set_process_noise_scale(self.supervisor.process_noise_scale())
+        self.supervisor.scale_process_noise_of(self.filter.as_mut())
     }
 
     /// The scale on the `Q` given that the filter predicts with (see
     /// [`Supervisor::process_noise_scale`]).
     pub fn process_noise_scale(&self) -> f64 {
         self.supervisor.process_noise_scale()
+    }
+
+    /// Puts the adapted scale on `filter`'s `Q`, as on this one's (a reader's
+    /// copy predicting to a read between samples).
+    pub fn scale_process_noise_of(&self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        self.supervisor.scale_process_noise_of(filter)
     }
 
     /// Takes the events since the last call, oldest first.
@@ -241,7 +247,7 @@ impl SupervisedFilter {
     pub fn resume(&mut self, skipped: u64, nis: f64, supervisor: &[u64]) -> Result<(), FilterError> {
         let before = self.supervisor.clone();
         self.supervisor.load(supervisor)?;
-        if let Err(e) = self.filter.set_process_noise_scale(self.supervisor.process_noise_scale()) {
+        if let Err(e) = self.supervisor.scale_process_noise_of(self.filter.as_mut()) {
             self.supervisor = before;
             return Err(e);
         }
@@ -252,7 +258,7 @@ impl SupervisedFilter {
     /// New `Q` and `R` (`Q` as given: the adapted scale stays on it); on
     /// error the filter keeps its noise.
     pub fn set_noise(&mut self, mut noise: crate::noise::Noise) -> Result<(), FilterError> {
-        noise.set_q_scale(self.supervisor.process_noise_scale())?;
+        noise.set_q_scale(self.supervisor.process_noise_scale(), self.supervisor.scaled_states())?;
         self.filter.set_noise(noise)
     }
 

@@ -47,7 +47,7 @@ fn step(f: &mut dyn StateEstimator, s: &mut Supervisor, held: &[f64], u: &[f64],
     f.hold_input(u).unwrap();
     let outcome = s.gate(f, z).unwrap().clone();
     s.commit(|_| {});
-    f.set_process_noise_scale(s.process_noise_scale()).unwrap();
+    s.scale_process_noise_of(f).unwrap();
     outcome
 }
 
@@ -211,7 +211,7 @@ fn a_memory_saved_with_a_jump_under_review_continues_exactly() {
         assert_eq!(again, words, "{kind}");
         let mut g = build_filter(kind, case.model.clone(), noise(), &case.prior, params).unwrap();
         g.restore(&f.snapshot()).unwrap();
-        g.set_process_noise_scale(t.process_noise_scale()).unwrap();
+        t.scale_process_noise_of(g.as_mut()).unwrap();
         for (k, z) in zs.iter().enumerate().skip(101) {
             let a = step(f.as_mut(), &mut s, held(k), &case.inputs[k], z);
             let b = step(g.as_mut(), &mut t, held(k), &case.inputs[k], z);

@@ -72,7 +72,7 @@ fn run_is_the_predict_hold_gate_commit_cycle_bit_for_bit() {
             s.gate(by_hand.as_mut(), z).unwrap();
             let time = k as f64 * DT;
             s.commit(|c| hand_events.push(Event::Fault { channel: c.channel, faulty: c.faulty, time }));
-            by_hand.set_process_noise_scale(s.process_noise_scale()).unwrap();
+            s.scale_process_noise_of(by_hand.as_mut()).unwrap();
             assert_eq!(beliefs[k], bits(by_hand.as_ref()), "{kind}: sample {k}");
         }
         assert_eq!(looped.supervisor().rejected(), s.rejected(), "{kind}");

@@ -502,8 +502,9 @@ impl Estimation {
         }
         self.reader.restore(&self.copy).map_err(|e| format!("cannot copy the belief for the read: {e}"))?;
         // The prediction to a read between samples uses the adapted Q too.
-        let scale = self.supervised.process_noise_scale();
-        self.reader.set_process_noise_scale(scale).map_err(|e| format!("cannot scale the reader's Q: {e}"))
+        self.supervised
+            .scale_process_noise_of(self.reader.as_mut())
+            .map_err(|e| format!("cannot scale the reader's Q: {e}"))
     }
 
     /// New `Q` and `R` (for one sample time), for the reads too; on error the

@@ -55,8 +55,7 @@ use estimator::models::{
     WheelRailVertical,
 };
 use estimator::{
-    build_filter, Discretized, FilterKind, Gaussian, Noise, QuantizedSteps, StateEstimator, Supervisor,
-    SupervisorSettings, UnscentedParams,
+    build_filter, Discretized, FilterKind, Gaussian, Noise, QuantizedSteps, StateEstimator, Supervisor, UnscentedParams,
 };
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
@@ -518,7 +517,7 @@ fn s4_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
 /// S4's supervisor: resent telegrams stuck from the first repeat, slot slips as
 /// quantised steps of the offsets.
 fn s4_supervisor(s: &Setup) -> Supervisor {
-    let settings = SupervisorSettings { stuck_after: 2, adaptation_window: 0, ..SupervisorSettings::default() };
+    let settings = s.descriptor.supervision;
     let steps = QuantizedSteps {
         quantum: s.get("slot_pitch"),
         after: 3,
@@ -720,7 +719,7 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
         nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
         let rows: Vec<i32> = supervisor.pending().rows.iter().map(|&row| estimators::status_value(row)).collect();
         supervisor.commit(|_| {});
-        reference.set_process_noise_scale(supervisor.process_noise_scale()).unwrap();
+        supervisor.scale_process_noise_of(reference.as_mut()).unwrap();
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
         // Each input's status is the supervisor's outcome of its row.
@@ -807,7 +806,7 @@ fn s5_outputs_equal_the_library_run_in_process() {
         hold(reference.as_mut(), &u[k]);
         let nis = supervisor.gate(reference.as_mut(), &z[k]).unwrap().nis;
         supervisor.commit(|_| {});
-        reference.set_process_noise_scale(supervisor.process_noise_scale()).unwrap();
+        supervisor.scale_process_noise_of(reference.as_mut()).unwrap();
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
         if k < samples {
@@ -860,6 +859,7 @@ fn check_master(setup: &Setup, h: f64, samples: usize) {
     fmu.initialise(setup, duration);
     let mut reference = setup.reference_filter();
     let mut supervisor = (setup.supervisor)(setup);
+    let scaled_states = supervisor.scaled_states().to_vec();
     let steps = (duration / h).round() as usize;
     let mut k = 0; // the reference's sample
     let on_grid = |t: f64| ((t / ts).round() * ts - t).abs() < 1e-9;
@@ -870,7 +870,7 @@ fn check_master(setup: &Setup, h: f64, samples: usize) {
         }
         let mut ahead = setup.reference_filter_over(dt);
         ahead.restore(&reference.snapshot()).unwrap();
-        ahead.set_process_noise_scale(reference.noise().q_scale()).unwrap();
+        ahead.set_process_noise_scale(reference.noise().q_scale(), &scaled_states).unwrap();
         ahead.predict(&[], dt).unwrap();
         setup.expected_outputs(ahead.as_ref(), reference.innovation().nis())
     };
@@ -882,7 +882,7 @@ fn check_master(setup: &Setup, h: f64, samples: usize) {
         if on_grid(t) {
             supervisor.gate(reference.as_mut(), &z).unwrap();
             supervisor.commit(|_| {});
-            reference.set_process_noise_scale(supervisor.process_noise_scale()).unwrap();
+            supervisor.scale_process_noise_of(reference.as_mut()).unwrap();
         }
         let expected = expected_at(reference.as_ref(), t, k);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}, h {h}: read at t = {t}");

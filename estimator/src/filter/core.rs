@@ -262,8 +262,8 @@ macro_rules! core_accessors {
             self.core.noise.set_r_diagonal(variances)
         }
 
-        fn set_process_noise_scale(&mut self, scale: f64) -> Result<(), crate::error::FilterError> {
-            self.core.noise.set_q_scale(scale)
+        fn set_process_noise_scale(&mut self, scale: f64, states: &[bool]) -> Result<(), crate::error::FilterError> {
+            self.core.noise.set_q_scale(scale, states)
         }
 
         fn hold_input(&mut self, u: &[f64]) -> Result<(), crate::error::FilterError> {

@@ -84,9 +84,11 @@ pub trait StateEstimator {
     /// Sets the variances of a diagonal `R` in place, without allocating
     /// ([`Noise::set_r_diagonal`]).
     fn set_measurement_variances(&mut self, variances: &[f64]) -> Result<(), FilterError>;
-    /// Scales the `Q` it was given by `scale` (see [`Noise::set_q_scale`]), in
-    /// place, from the next prediction on; on error nothing changes.
-    fn set_process_noise_scale(&mut self, scale: f64) -> Result<(), FilterError>;
+    /// Scales the `Q` it was given by `scale` on the states `states` selects
+    /// and those their noise couples to (all when empty; see
+    /// [`Noise::set_q_scale`]), in place, from the next prediction on; on error
+    /// nothing changes.
+    fn set_process_noise_scale(&mut self, scale: f64, states: &[bool]) -> Result<(), FilterError>;
     /// Restarts from `prior` at time `t0`, keeping the buffers.
     fn reset(&mut self, t0: f64, prior: &Gaussian) -> Result<(), FilterError>;
     /// Scales the covariance: `P ← factor·P` (`factor ≥ 1`, finite), to open the

@@ -54,6 +54,7 @@ use jump::{Jumps, Review};
 use reacquisition::Reacquisition;
 
 use crate::error::FilterError;
+use crate::filter::StateEstimator;
 
 /// Gate, fault flags, re-acquisition and consistency for one filter.
 #[derive(Debug, Clone)]
@@ -137,6 +138,21 @@ impl Supervisor {
     /// off); the filter predicts with it from the next sample on.
     pub fn process_noise_scale(&self) -> f64 {
         self.adaptation.scale()
+    }
+
+    /// The states the scale on `Q` is for ([`Supervisor::with_jump_states`], a
+    /// flag per state; empty: all), as [`StateEstimator::set_process_noise_scale`]
+    /// takes them. The adaptation learns the unknown inputs' noise: the motion
+    /// states' noise stands for the model's own error, which the innovations
+    /// do not show where the states are not observed (a scale on it would
+    /// shrink the σ of those states with nothing to say it should).
+    pub fn scaled_states(&self) -> &[bool] {
+        &self.jump_states
+    }
+
+    /// Puts the adapted scale on `filter`'s `Q` (see [`Supervisor::scaled_states`]).
+    pub fn scale_process_noise_of(&self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        filter.set_process_noise_scale(self.process_noise_scale(), &self.jump_states)
     }
 
     /// Jumps of the unknown inputs taken so far (`jump.rs`).

@@ -38,9 +38,12 @@ pub struct SupervisorSettings {
     pub jumps: bool,
     /// Samples over which the process-noise scale adapts (`adaptation.rs`):
     /// its gain per sample is the inverse. 0 turns the adaptation off (the
-    /// scale stays 1). Default 200.
+    /// scale stays 1). Default 200. The scale is on the unknown inputs' noise
+    /// ([`Supervisor::scaled_states`](super::Supervisor::scaled_states)).
     pub adaptation_window: usize,
-    /// The least the adaptation may scale the `Q` given by. Default 1e-2.
+    /// The least the adaptation may scale the `Q` given by. Default 1e-2; 1
+    /// lets it only raise `Q`, for an unknown input whose noise is set for
+    /// rare hard events a quiet stretch would unlearn (S2's welds).
     pub min_process_noise_scale: f64,
     /// The most the adaptation may scale the `Q` given by. Default 1e2: a
     /// user's `Q` is taken to be at most a hundred times wrong either way

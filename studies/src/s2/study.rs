@@ -137,8 +137,9 @@ pub fn run_filter(
     let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(&vehicle), unscented)
         .map_err(|e| format!("setup: {e}"))?;
     let unknown_inputs = &estimator::models::WheelRailVertical::UNKNOWN_INPUTS;
-    // The FMU's: Q as given (see `kalfmu_fmu`'s S2 table), jumps taken.
-    let settings = estimator::SupervisorSettings { adaptation_window: 0, ..estimator::SupervisorSettings::default() };
+    // The FMU's: the forces' noise adapts upwards only (see `kalfmu_fmu`'s S2 table), jumps taken.
+    let settings =
+        estimator::SupervisorSettings { min_process_noise_scale: 1.0, ..estimator::SupervisorSettings::default() };
     let supervisor = estimator::Supervisor::new(settings, 7)
         .and_then(|s| s.with_jump_states(filter.state_dim(), unknown_inputs))
         .map_err(|e| format!("setup: {e}"))?;
