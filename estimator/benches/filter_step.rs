@@ -12,6 +12,12 @@
 //!
 //! all at `dt = 0.005 s`. Benchmarks are named `step/<model>/<filter>`.
 //!
+//! The same SRCKF cycle through the supervised loop (`SupervisedFilter`: predict, then
+//! the gated update and its commit) is `supervised/<model>/<settings>`, with the
+//! supervisor as it was before jumps and adaptation (`gate`, `SupervisorSettings::fixed`),
+//! with jumps of the model's unknown inputs (`jumps`, adaptation off) and with both, the
+//! default (`jumps+adaptation`). The last two differ by what the adaptation costs.
+//!
 //! The measurements are simulated once, before any timing: the same model from
 //! a non-zero initial state with seeded process noise, plus seeded measurement
 //! noise. The timed loop cycles through them; when the sequence wraps, the
@@ -41,7 +47,8 @@ use estimator::models::{
 };
 use estimator::{
     CubatureKalman, Discretized, ExtendedKalman, FilterError, Gaussian, Model, Noise, Observation, SquareRootCubature,
-    StateEstimator, SvdCubature, UnscentedKalman, UnscentedParams, VectorField,
+    StateEstimator, SupervisedFilter, Supervisor, SupervisorSettings, SvdCubature, UnscentedKalman, UnscentedParams,
+    VectorField,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -233,6 +240,70 @@ impl FilterVisitor for Bench<'_> {
     }
 }
 
+/// The supervisor settings the supervised benchmarks compare, by name.
+fn supervisor_settings() -> [(&'static str, SupervisorSettings); 3] {
+    let default = SupervisorSettings::default();
+    [("gate", default.fixed()), ("jumps", default.adaptive(0)), ("jumps+adaptation", default)]
+}
+
+/// The SRCKF of `case` through the supervised loop with each of [`supervisor_settings`],
+/// the jumps in `unknown_inputs`: allocations per step, then the timed cycle.
+fn bench_supervised<M: Model + Clone + 'static>(criterion: &mut Criterion, case: &Case<M>, unknown_inputs: &[usize]) {
+    let n = case.model.state_dim();
+    let build = |settings: SupervisorSettings| {
+        let filter = SquareRootCubature::new(case.model.clone(), case.noise.clone(), &case.prior)
+            .unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        let supervisor = Supervisor::new(settings, case.m)
+            .and_then(|s| s.with_jump_states(n, unknown_inputs))
+            .unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        SupervisedFilter::new(Box::new(filter), supervisor).unwrap_or_else(|e| panic!("{}: {e}", case.name))
+    };
+    let cycle = |supervised: &mut SupervisedFilter, k: usize| {
+        let step = supervised.predict(&[], DT).and_then(|()| supervised.update(case.measurement(k), (k + 1) as f64 * DT));
+        if let Err(e) = step {
+            panic!("{}: the supervised SRCKF failed at step {k}: {e}", case.name);
+        }
+        supervised.take_events(|event| {
+            black_box(event);
+        });
+    };
+    for (name, settings) in supervisor_settings() {
+        let mut supervised = build(settings);
+        for k in 0..=ALLOC_STEPS {
+            if k == 1 {
+                ALLOCATIONS.store(0, Ordering::Relaxed);
+            }
+            cycle(&mut supervised, k);
+        }
+        let allocations = ALLOCATIONS.load(Ordering::Relaxed) as f64 / ALLOC_STEPS as f64;
+        println!("allocations per step: supervised/{}/{name} = {allocations}", case.name);
+    }
+    let mut group = criterion.benchmark_group(format!("supervised/{}", case.name));
+    group.sample_size(50).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2));
+    for (name, settings) in supervisor_settings() {
+        let mut supervised = build(settings);
+        let mut next = 0usize;
+        group.bench_function(name, |b| {
+            b.iter_custom(|iters| {
+                let mut elapsed = Duration::ZERO;
+                for _ in 0..iters {
+                    if next == STEPS {
+                        // End of the sequence: a new loop, outside the timed region.
+                        supervised = build(settings);
+                        next = 0;
+                    }
+                    let start = Instant::now();
+                    cycle(&mut supervised, next);
+                    elapsed += start.elapsed();
+                    next += 1;
+                }
+                elapsed
+            })
+        });
+    }
+    group.finish();
+}
+
 /// Study S1: state `[z₁, z₂, F, ż₁, ż₂, Ḟ]`, measurements `[z̈₁, z̈₂]`.
 fn s1() -> Case<Discretized<Oscillator2DofLoad>> {
     let model = Discretized::rk4(Oscillator2DofLoad::new(Oscillator2Dof::stiffness_nonlinear()), 1);
@@ -335,5 +406,8 @@ fn main() {
     s1.for_each_filter(&mut Bench(&mut criterion));
     wheel_rail.for_each_filter(&mut Bench(&mut criterion));
     missile.for_each_filter(&mut Bench(&mut criterion));
+    bench_supervised(&mut criterion, &s1, &Oscillator2DofLoad::UNKNOWN_INPUTS);
+    bench_supervised(&mut criterion, &wheel_rail, &WheelRailVertical::UNKNOWN_INPUTS);
+    bench_supervised(&mut criterion, &missile, &Missile6Dof::UNKNOWN_INPUTS);
     criterion.final_summary();
 }
