@@ -13,6 +13,7 @@ use estimator::{Event, RowOutcome, StateEstimator, Supervisor, SupervisorSetting
 
 use crate::estimators::{self, status_value, Descriptor, MAX_DERIVED};
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
+use crate::input_timing_check::{InputTimingCheck, Phase};
 use crate::state::ModelState;
 use crate::timing::{Estimation, InputTiming, Reading};
 use crate::variables::{Causality, Parameters, Role, Variability};
@@ -54,6 +55,8 @@ pub struct Instance {
     /// Per measurement row: a non-finite value, or the input never being set, was already reported.
     pub(crate) missing_reported: Vec<bool>,
     pub(crate) off_grid_reported: bool,
+    /// Whether the master's ordering fits `input_timing` (`input_timing_check.rs`).
+    pub(crate) timing_check: InputTimingCheck,
 }
 
 // SAFETY: the environment pointer is only handed back to the importer's logger;
@@ -90,6 +93,7 @@ impl Instance {
             outputs_stale: false,
             missing_reported: vec![false; m],
             off_grid_reported: false,
+            timing_check: InputTimingCheck::new(m),
         };
         instance.reset();
         instance
@@ -115,6 +119,8 @@ impl Instance {
         self.outputs_stale = false;
         self.missing_reported.iter_mut().for_each(|r| *r = false);
         self.off_grid_reported = false;
+        self.timing_check.reset();
+        self.set_role(Role::InputTimingCheck, f64::from(crate::input_timing_check::UNDECIDED));
     }
 
     // ----- logging: the one path every message takes -----
@@ -262,6 +268,9 @@ impl Instance {
         match build_estimation(&self.descriptor, &self.values, self.start_time, &self.controls) {
             Ok(estimation) => {
                 let kind = estimation.filter().kind();
+                // The inputs set in initialisation mode, kept for the first step to compare.
+                self.standing_measurement();
+                self.timing_check.at_exit(&self.measurement, &self.input_ever_set);
                 self.estimation = Some(estimation);
                 self.state = ModelState::StepComplete;
                 self.outputs_stale = true;
@@ -310,6 +319,7 @@ impl Instance {
         }
         self.load_measurement();
         self.load_controls();
+        self.check_input_timing();
         let Some(estimation) = self.estimation.as_mut() else {
             return self.error("fmi2DoStep: no filter (internal state lost)");
         };
@@ -359,6 +369,34 @@ impl Instance {
         self.inputs_set = false;
         self.outputs_stale = true;
         Fmi2Status::Ok
+    }
+
+    /// At `fmi2DoStep`, with the measurements standing: compares them with
+    /// those set in initialisation mode (`input_timing_check.rs`), shows the
+    /// verdict in `input_timing_check`, and warns, once, when the master's
+    /// ordering fits the other `input_timing`.
+    fn check_input_timing(&mut self) {
+        let Some(verdict) = self.timing_check.at_step(&self.measurement) else { return };
+        let Some(timing) = self.estimation.as_ref().map(Estimation::timing) else { return };
+        let value = self.timing_check.value(timing);
+        self.set_role(Role::InputTimingCheck, f64::from(value));
+        if value != crate::input_timing_check::OTHER_FITS {
+            return;
+        }
+        let message = match verdict {
+            Phase::NextInstant => {
+                "input_timing = 1 (communication_point), but the inputs set before the first fmi2DoStep differ from \
+                 those set in initialisation mode: the master seems to step the plant first and hand over its outputs \
+                 of t + h (Gauss–Seidel); set input_timing = 2 (step_end) (input_timing_check is 2)"
+            }
+            _ => {
+                "input_timing = 2 (step_end), but the inputs set before the first fmi2DoStep are those set in \
+                 initialisation mode, bit for bit, and change at the next step: the master seems to hand over the \
+                 plant's outputs of t before fmi2DoStep(t, h) (Jacobi); set input_timing = 1 (communication_point) \
+                 (input_timing_check is 2)"
+            }
+        };
+        self.log(Fmi2Status::Warning, "logStatusWarning", message);
     }
 
     /// Logs what the supervisor reported during the last step, once per
@@ -475,14 +513,21 @@ impl Instance {
     }
 
     /// Copies the inputs into the measurement vector: NaN for an input never
-    /// set (its start value is no measurement); reports each channel's first
-    /// missing value.
-    fn load_measurement(&mut self) {
-        for (i, v) in self.descriptor.variables.iter().enumerate() {
+    /// set (its start value is no measurement).
+    fn standing_measurement(&mut self) {
+        for (v, &x) in self.descriptor.variables.iter().zip(&self.values) {
             if let Role::Measurement(row) = v.role {
-                let ever_set = self.input_ever_set[row];
-                let z = if ever_set { self.values[i] } else { f64::NAN };
-                self.measurement[row] = z;
+                self.measurement[row] = if self.input_ever_set[row] { x } else { f64::NAN };
+            }
+        }
+    }
+
+    /// [`Instance::standing_measurement`], reporting each channel's first missing value.
+    fn load_measurement(&mut self) {
+        self.standing_measurement();
+        for v in &self.descriptor.variables {
+            if let Role::Measurement(row) = v.role {
+                let (ever_set, z) = (self.input_ever_set[row], self.measurement[row]);
                 if !z.is_finite() && !self.missing_reported[row] && !v.intermittent {
                     self.missing_reported[row] = true;
                     let what = if ever_set { format!("is {z}") } else { "has never been set".to_string() };

@@ -23,6 +23,7 @@
 
 pub mod estimators;
 pub mod ffi;
+pub mod input_timing_check;
 pub mod instance;
 pub mod model_description;
 mod serialize;

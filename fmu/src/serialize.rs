@@ -7,6 +7,7 @@
 //! last successful time (f64)  off-grid reported (u8)  inputs set at this point (u8)
 //! values (u32 count + f64 each)
 //! per input channel (u32 count, then each): ever set (u8)  missing reported (u8)
+//! input timing check: phase (u8), per input channel (as many): compared (u8)  kept value (f64)
 //! estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
 //!                           supervisor memory (u32 count + u64 each)
 //!                           controls in force (u32 count + f64 each)
@@ -21,7 +22,9 @@
 //! each measurement row in the latest update, which the `<input>_status`
 //! outputs show and the supervisor's memory does not hold); version 8 carries
 //! the supervisor memory of layout 3 (the adapted scale on `Q` and the jump
-//! under review, with its two beliefs). The filter and
+//! under review, with its two beliefs); version 9 adds the input timing check
+//! (`input_timing_check.rs`: where it is, and the inputs set in
+//! initialisation mode it compares the first steps' with). The filter and
 //! its twin for reads are rebuilt from the parameter values and the belief
 //! restored from the snapshot; the outputs are computed afresh at the next
 //! read, from exactly that.
@@ -29,12 +32,13 @@
 use estimator::{FilterKind, Snapshot};
 
 use crate::estimators::{status_outcome, status_value};
+use crate::input_timing_check::Phase;
 use crate::instance::Instance;
 use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 8;
+const VERSION: u32 = 9;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.
@@ -56,6 +60,12 @@ pub fn save(instance: &Instance) -> Vec<u8> {
     for (&set, &reported) in instance.input_ever_set.iter().zip(&instance.missing_reported) {
         w.u8(u8::from(set));
         w.u8(u8::from(reported));
+    }
+    let (phase, compared, kept) = instance.timing_check.saved();
+    w.u8(phase.tag());
+    for (&c, &x) in compared.iter().zip(kept) {
+        w.u8(u8::from(c));
+        w.f64(x);
     }
     match instance.estimation.as_ref().map(Estimation::progress) {
         None => w.u8(0),
@@ -96,6 +106,9 @@ pub struct Saved {
     values: Vec<f64>,
     input_ever_set: Vec<bool>,
     missing_reported: Vec<bool>,
+    check_phase: Phase,
+    check_compared: Vec<bool>,
+    check_row: Vec<f64>,
     progress: Option<Progress>,
 }
 
@@ -135,6 +148,12 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
     for _ in 0..m {
         input_ever_set.push(r.u8()? != 0);
         missing_reported.push(r.u8()? != 0);
+    }
+    let check_phase = Phase::from_tag(r.u8()?).ok_or("bad input timing check phase")?;
+    let (mut check_compared, mut check_row) = (Vec::with_capacity(m), Vec::with_capacity(m));
+    for _ in 0..m {
+        check_compared.push(r.u8()? != 0);
+        check_row.push(r.f64()?);
     }
     let progress = match r.u8()? {
         0 => None,
@@ -182,6 +201,9 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
         values,
         input_ever_set,
         missing_reported,
+        check_phase,
+        check_compared,
+        check_row,
         progress,
     })
 }
@@ -189,6 +211,8 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
 /// Applies a parsed state: the filters are rebuilt from the saved parameters
 /// and the belief restored. On error the instance is unchanged.
 pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
+    let mut timing_check = instance.timing_check.clone();
+    timing_check.restore(saved.check_phase, &saved.check_compared, &saved.check_row)?;
     let estimation = match &saved.progress {
         None => None,
         Some(progress) => {
@@ -211,6 +235,7 @@ pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
     instance.values = saved.values;
     instance.input_ever_set = saved.input_ever_set;
     instance.missing_reported = saved.missing_reported;
+    instance.timing_check = timing_check;
     instance.estimation = estimation;
     instance.mark_outputs_stale();
     Ok(())

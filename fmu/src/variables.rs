@@ -82,6 +82,9 @@ pub enum Role {
     InputStatus(usize),
     /// Output: the filter is consistent, not lost, and has not failed.
     FilterHealthy,
+    /// Output: whether the master's call pattern fits `input_timing` (an
+    /// [`crate::estimators::INPUT_TIMING_CHECK`] value, `input_timing_check.rs`).
+    InputTimingCheck,
     /// Output `k` of the estimator's derived outputs (`Descriptor::derive`).
     Derived(usize),
 }

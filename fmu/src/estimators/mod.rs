@@ -165,6 +165,22 @@ pub static INPUT_TIMING: EnumerationType = EnumerationType {
     ],
 };
 
+/// Whether the master's call pattern fits `input_timing` (`input_timing_check.rs`),
+/// the type of the `input_timing_check` output.
+pub static INPUT_TIMING_CHECK: EnumerationType = EnumerationType {
+    name: "InputTimingCheck",
+    items: &[
+        (
+            0,
+            "undecided",
+            "no verdict (yet): no input set before fmi2ExitInitializationMode, or inputs that stood still over the \
+             first two steps",
+        ),
+        (1, "fits", "the master's ordering fits the input_timing set"),
+        (2, "other_fits", "the master's ordering fits the other input_timing (a warning says which to set)"),
+    ],
+};
+
 /// What became of a measurement input in an update (`estimator::RowOutcome`), the
 /// type of the `<input>_status` outputs.
 pub static INPUT_STATUS: EnumerationType = EnumerationType {
@@ -346,6 +362,13 @@ fn common_variables(sample_time: f64, filter: FilterKind, supervision: &Supervis
             "filter_healthy",
             Role::FilterHealthy,
             "false while the filter is inconsistent (its windowed innovations exceed their bound) or lost (every input rejected), and once it has failed",
+        ),
+        Variable::enumeration_output(
+            "input_timing_check".to_string(),
+            &INPUT_TIMING_CHECK,
+            Role::InputTimingCheck,
+            "whether the master's ordering fits input_timing, from the inputs set in initialisation mode and before \
+             the first two fmi2DoStep: 0 undecided, 1 it fits, 2 the other input_timing fits (a warning says so)",
         ),
     ]
 }
