@@ -91,7 +91,10 @@ impl ImportedFmu {
 
     /// A new instance, initialised from `start_time` to `stop_time` with these
     /// parameters (Reals and Integers/Enumerations by name), then the user's
-    /// `start_values` over them, each set by its parameter's type.
+    /// `start_values` over them, each set by its parameter's type, and the
+    /// plant's outputs at the start on the `inputs` (value references), as a
+    /// master propagating initial values sets them in initialisation mode.
+    #[allow(clippy::too_many_arguments)]
     pub fn instantiate(
         &self,
         name: &str,
@@ -100,6 +103,7 @@ impl ImportedFmu {
         reals: &[(&str, f64)],
         integers: &[(&str, i32)],
         start_values: &StartValues,
+        inputs: (&[u32], &[f64]),
     ) -> anyhow::Result<Instance> {
         // Checked before anything is instantiated, so that a misspelt name costs no run.
         let typed =
@@ -129,6 +133,8 @@ impl ImportedFmu {
             }
             .map_err(|e| anyhow!("start value {name}: the FMU refused it: {e}"))?;
         }
+        Common::set_real(&mut cs, inputs.0, inputs.1)
+            .map_err(|e| anyhow!("fmi2SetReal of the inputs in initialisation mode: {e}"))?;
         Common::exit_initialization_mode(&mut cs).map_err(|e| anyhow!("fmi2ExitInitializationMode: {e}"))?;
         Ok(Instance { cs, time: start_time })
     }

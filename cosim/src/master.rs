@@ -10,7 +10,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use estimator::FilterKind;
 use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
 
@@ -67,6 +67,11 @@ pub fn run(
     let (first, last) = (times[0], times[times.len() - 1]);
     let study = setup.metadata.get("study").cloned().unwrap_or_default();
     let case = setup.metadata.get("case").cloned().unwrap_or_default();
+    let input_vrs: Vec<u32> = inputs.iter().map(|(n, _)| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
+    let output_vrs: Vec<u32> = outputs.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
+    // The plant's outputs at the start, set in initialisation mode too, as masters that
+    // propagate initial values do (fmpy, OMSimulator): the FMU's input_timing_check
+    // then sees the ordering.
     let mut instance = fmu.instantiate(
         &format!("{study}-{case}-{filter}"),
         first,
@@ -74,9 +79,8 @@ pub fn run(
         parameters,
         &[&[("filter", filter_enumeration(filter))], integers].concat(),
         start_values,
+        (&input_vrs, &measured(0)),
     )?;
-    let input_vrs: Vec<u32> = inputs.iter().map(|(n, _)| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
-    let output_vrs: Vec<u32> = outputs.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
     let counters = [fmu.vr("skipped_measurements")?, fmu.vr("rejected_measurements")?];
 
     let mut metadata = setup.metadata.clone();
@@ -113,7 +117,14 @@ pub fn run(
     }
     let mut counts = [0; 2];
     instance.read_integers(&counters, &mut counts)?;
+    // This master hands over the plant's outputs of t before fmi2DoStep(t, h) (Jacobi);
+    // an FMU that read the calls otherwise would have estimated the wrong instants.
+    let mut check = [0];
+    instance.read_integers(&[fmu.vr("input_timing_check")?], &mut check)?;
     instance.terminate()?;
     w.finish()?;
+    if check[0] == 2 {
+        bail!("{study} {case} {filter}: the FMU's input_timing_check says this master's ordering fits the other input_timing");
+    }
     Ok(Counts { skipped: counts[0], rejected: counts[1] })
 }
