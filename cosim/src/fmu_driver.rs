@@ -141,7 +141,11 @@ impl ImportedFmu {
 
     /// Whether the FMU takes every one of `start_values`: an error names the first it does
     /// not (no such parameter, a fraction for an Integer, …), before anything runs.
+    /// The filter is not one: the studies run every kind and label their logs by it.
     pub fn check_start_values(&self, start_values: &StartValues) -> anyhow::Result<()> {
+        if start_values.get("filter").is_some() {
+            bail!("the filter is the study's choice, not a start value: drop 'filter' from --set/--values");
+        }
         start_values.iter().try_for_each(|(n, v)| self.typed_start_value(n, v).map(|_| ()))
     }
 

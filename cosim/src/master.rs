@@ -67,10 +67,7 @@ pub fn run(
     let (first, last) = (times[0], times[times.len() - 1]);
     let study = setup.metadata.get("study").cloned().unwrap_or_default();
     let case = setup.metadata.get("case").cloned().unwrap_or_default();
-    if start_values.get("filter").is_some() {
-        // The log is labelled with the study's filter, and every kind is run anyway.
-        bail!("the filter is the study's choice, not a start value: drop 'filter' from --set/--values");
-    }
+    fmu.check_start_values(start_values)?;
     let input_vrs: Vec<u32> = inputs.iter().map(|(n, _)| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
     let output_vrs: Vec<u32> = outputs.iter().map(|n| fmu.vr(n)).collect::<anyhow::Result<_>>()?;
     // The plant's outputs at the start, set in initialisation mode too, as masters that
