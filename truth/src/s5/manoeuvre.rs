@@ -11,9 +11,8 @@
 //! meanwhile) where the standard has short 3-2-1-1s and steps, and yaw doublets of ±1.5°
 //! on δz at other instants than the standard's. Every control still moves in each half,
 //! and every switch is on the 5 ms grid. [`Manoeuvre::named`] loads either by name
-//! (`standard`, `roll-turn`); the standard file is unchanged. The JSBSim driver's `fly()`
-//! takes any manoeuvre file read by its `Manoeuvre.load(path)`, so it can fly this one
-//! too; its command line flies the standard one (and its log names that file). Over the
+//! (`standard`, `roll-turn`); the standard file is unchanged. The JSBSim driver flies
+//! the same files (`fly.py --manoeuvre standard|roll-turn`, its log naming the file). Over the
 //! 20 s the roll rate's RMS is 8.7 °/s against the standard's 5.1 °/s, α stays within
 //! ±3.4° and the missile climbs from 10 to 12.4 km. Our choice `[est]`, not the paper's.
 
