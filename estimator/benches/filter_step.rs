@@ -259,7 +259,8 @@ fn bench_supervised<M: Model + Clone + 'static>(criterion: &mut Criterion, case:
         SupervisedFilter::new(Box::new(filter), supervisor).unwrap_or_else(|e| panic!("{}: {e}", case.name))
     };
     let cycle = |supervised: &mut SupervisedFilter, k: usize| {
-        let step = supervised.predict(&[], DT).and_then(|()| supervised.update(case.measurement(k), (k + 1) as f64 * DT));
+        let step =
+            supervised.predict(&[], DT).and_then(|()| supervised.update(case.measurement(k), (k + 1) as f64 * DT));
         if let Err(e) = step {
             panic!("{}: the supervised SRCKF failed at step {k}: {e}", case.name);
         }
