@@ -9,6 +9,12 @@ the `table.json` it writes beside its logs.
   measurements up to t: it correlates worse than the estimate that has the
   measurement of its own instant.
 - Each run is logged and each case compared (JSON and recording).
+- Beside the paper's cases, the table has a case the set-up was not made for (`--quick`
+  runs one; the full run all six of `truth::s1::Case::UNSEEN` at 1 %, 2 % and 5 % noise),
+  marked as unpublished, without paper figures, run by the SRCKF, logged and compared, with
+  a finite correlation and its σ figures.
+- Start values given with `--set` are printed in the header and written in the settings,
+  and they change the runs.
 - Beside its accuracy, each filter's σ of the load is checked by the analyzer's figures,
   which the table carries as the comparison has them: the 1σ and 2σ coverage of F, its
   mean (e/σ)² with its reading, and the run's NIS/rows with its reading. F's ±2σ holds at
@@ -18,6 +24,8 @@ the `table.json` it writes beside its logs.
 from __future__ import annotations
 
 import json
+import math
+import re
 import subprocess
 
 import pytest
@@ -36,21 +44,44 @@ CORRELATION_GOAL = {"stiffness": 0.998, "damping": 0.999}
 READINGS = {"consistent", "too wide", "too narrow"}
 
 
-@pytest.fixture(scope="module")
-def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
-    out = tmp_path_factory.mktemp("reproduce")
+UNSEEN_LOADS = {"band20", "steps", "chirp"}
+
+
+def reproduce(kalfmu_bin, fmu_dir, out, *extra: str) -> subprocess.CompletedProcess:
+    """`kalfmu reproduce --study s1 --quick` into OUT, with EXTRA arguments."""
     proc = subprocess.run(
-        [str(kalfmu_bin), "reproduce", "--study", "s1", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)],
+        [str(kalfmu_bin), "reproduce", "--study", "s1", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out), *extra],
         capture_output=True,
         text=True,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc
+
+
+@pytest.fixture(scope="module")
+def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    reproduce(kalfmu_bin, fmu_dir, out)
     return out, json.loads((out / "s1" / "table.json").read_text())
 
 
 def filters(table: dict) -> dict[tuple[str, str], dict]:
-    """Every (case, filter) entry of the table."""
-    return {(c["case"], f["filter"]): f for c in table["cases"] for f in c["filters"]}
+    """Every (case, filter) entry of the paper's cases."""
+    return {(c["case"], f["filter"]): f for c in table["cases"] if c["published"] for f in c["filters"]}
+
+
+def unseen(table: dict) -> list[dict]:
+    """The cases the set-up was not made for."""
+    return [c for c in table["cases"] if not c["published"]]
+
+
+def comparison_of(out, case: dict):
+    """The comparison JSON of a table's case: `<case>.json`, or for an unseen case
+    `unseen/<case>_noise<percent>.json`."""
+    stem = case["case"].replace("/", "_")
+    if not case["published"]:
+        stem = f"unseen/{stem}_noise{100 * case['noise_fraction']:.1f}".replace(".", "p")
+    return json.loads((out / "s1" / f"{stem}.json").read_text())
 
 
 def test_the_table_has_every_filter_on_every_case_beside_the_papers_figures(reproduced):
@@ -59,9 +90,11 @@ def test_the_table_has_every_filter_on_every_case_beside_the_papers_figures(repr
     # --quick: 10 s of signal at the paper's 200 Hz.
     assert table["settings"]["duration"] == 10.0 and table["settings"]["rate"] == 200.0
     assert table["units"]["rmse_converged"] == "N" and table["units"]["convergence_time"] == "s"
-    assert [c["case"] for c in table["cases"]] == CASES
-    for case in table["cases"]:
+    assert [c["case"] for c in table["cases"] if c["published"]] == CASES
+    assert table["settings"]["quick"] is True and table["settings"]["start_values"] == {}
+    for case in [c for c in table["cases"] if c["published"]]:
         assert case["failure"] is None, case
+        assert case["noise_fraction"] == table["settings"]["noise_fraction"]
         assert case["paper"] == PAPER[case["case"]]
         assert [f["filter"] for f in case["filters"]] == FILTERS
         for f in case["filters"]:
@@ -131,9 +164,70 @@ def test_the_two_sigma_band_of_the_load_holds_at_least_ninety_percent_of_its_err
 def test_the_sigma_figures_are_the_comparisons(reproduced):
     out, table = reproduced
     for case in table["cases"]:
-        comparison = json.loads((out / "s1" / f"{case['case'].replace('/', '_')}.json").read_text())
+        comparison = comparison_of(out, case)
         for f, run in zip(case["filters"], comparison["runs"], strict=True):
             (load,) = [p for p in run["pairs"] if p["truth"] == "F"]
             for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
                 assert f["feedthrough"][field] == load[field], (case["case"], f["filter"], field)
             assert f["nis"] == run["nis"], (case["case"], f["filter"])
+
+
+def test_quick_adds_one_unseen_case_without_paper_figures_run_by_the_srckf(reproduced):
+    out, table = reproduced
+    (case,) = unseen(table)
+    chain, load = case["case"].split("/")
+    assert chain in CORRELATION_GOAL and load in UNSEEN_LOADS, case["case"]
+    assert case["paper"] is None and case["failure"] is None, case
+    assert case["noise_fraction"] == table["settings"]["noise_fraction"]
+    assert [f["filter"] for f in case["filters"]] == ["SRCKF"]
+    stem = f"{case['case'].replace('/', '_')}_noise2p0"
+    assert (out / "s1" / "unseen" / f"{stem}_srckf.mcap").is_file()
+    assert (out / "s1" / "unseen" / f"{stem}.rrd").stat().st_size > 0
+    assert comparison_of(out, case)["labels"] == ["SRCKF"]
+
+
+def test_the_unseen_case_has_a_finite_correlation_and_its_sigma_figures(reproduced):
+    _, table = reproduced
+    for case in unseen(table):
+        (f,) = case["filters"]
+        ours, where = f["feedthrough"], case["case"]
+        assert f["failure"] is None and math.isfinite(ours["correlation"]), (where, f)
+        assert -1.0 <= ours["correlation"] <= 1.0 and ours["rmse_converged"] > 0, (where, ours)
+        assert math.isfinite(f["after_step"]["correlation"]), where
+        one, two = ours["one_sigma_coverage"], ours["two_sigma_coverage"]
+        assert 0.0 <= one <= two <= 1.0, (where, one, two)
+        normalised = ours["normalised_error"]
+        assert normalised["mean_square"] > 0, where
+        assert_reading_of_its_interval(normalised["mean_square"], normalised["interval"], normalised["reading"], where)
+        nis = f["nis"]
+        assert nis["ratio"] > 0 and nis["rows_used_mean"] > 0, (where, nis)
+        assert_reading_of_its_interval(nis["ratio"], nis["interval"], nis["reading"], where)
+
+
+def test_the_unseen_case_is_printed_apart_with_blank_paper_columns(kalfmu_bin, fmu_dir, tmp_path):
+    proc = reproduce(kalfmu_bin, fmu_dir, tmp_path)
+    lines = proc.stdout.splitlines()
+    block = next(i for i, line in enumerate(lines) if line.startswith("unseen cases"))
+    header, row = lines[block + 1], lines[block + 2]
+    assert header.startswith("unseen case, noise")
+    assert row.split()[:3] == ["stiffness/band20", "2%", "SRCKF"], row
+    # The three paper columns are blank, not zero, where a paper's case has its figures.
+    paper_row = next(line for line in lines if line.startswith("stiffness/random") and " SRCKF " in line)
+    spans = [(m.start(), m.end()) for m in re.finditer("paper", header)]
+    main_header = next(line for line in lines if line.startswith("case "))
+    assert len(spans) == 3 and spans == [(m.start(), m.end()) for m in re.finditer("paper", main_header)]
+    for start, end in spans:
+        assert row[start:end].strip() == "", (row, start)
+        assert paper_row[start - 2 : end].strip() not in {"", "0.000"}, (paper_row, start)
+
+
+def test_start_values_are_printed_written_and_change_the_runs(kalfmu_bin, fmu_dir, reproduced, tmp_path):
+    _, default = reproduced
+    proc = reproduce(kalfmu_bin, fmu_dir, tmp_path, "--set", "load_noise_intensity=3e6")
+    assert "start values, over the study's in every FMU run: load_noise_intensity=3e6" in proc.stdout
+    table = json.loads((tmp_path / "s1" / "table.json").read_text())
+    assert table["settings"]["start_values"] == {"load_noise_intensity": 3e6}
+    # Each run, the unseen case's too, has the value: its figures move.
+    moved = [c["filters"][0]["feedthrough"]["rmse_converged"] for c in table["cases"]]
+    before = [c["filters"][0]["feedthrough"]["rmse_converged"] for c in default["cases"]]
+    assert len(moved) == len(before) and all(a != b for a, b in zip(moved, before)), (moved, before)

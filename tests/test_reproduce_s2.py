@@ -13,6 +13,12 @@ from the `table.json` it writes beside its logs.
   carries as the comparison has them: the 1σ and 2σ coverage of each wheel's force, its
   mean (e/σ)² with its reading (and the wheel farthest from 1), and the run's NIS/rows
   with its reading.
+- Beside the paper's cases, the table has a track the set-up was not made for (`--quick`
+  runs one; the full run the three of `truth::s2::cases::Scenario::UNSEEN`, each at its
+  speed, at both rates), marked as unpublished, without paper figures, run by the SRCKF
+  through the FMU and in-process alike, with finite correlations and its σ figures.
+- Start values given with `--set` are printed and written in the settings; one the
+  in-process filter has reaches it too, so the FMU still equals the library.
 """
 
 from __future__ import annotations
@@ -35,30 +41,52 @@ PAPER = {
 READINGS = {"consistent", "too wide", "too narrow"}
 
 
-@pytest.fixture(scope="module")
-def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
-    out = tmp_path_factory.mktemp("reproduce")
+UNSEEN_TRACKS = {"random/german-low", "random/german-high", "random/fra6"}
+
+
+def reproduce(kalfmu_bin, fmu_dir, out, *extra: str) -> subprocess.CompletedProcess:
+    """`kalfmu reproduce --study s2 --quick` into OUT, with EXTRA arguments."""
     proc = subprocess.run(
-        [str(kalfmu_bin), "reproduce", "--study", "s2", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)],
+        [str(kalfmu_bin), "reproduce", "--study", "s2", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out), *extra],
         capture_output=True,
         text=True,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc
+
+
+@pytest.fixture(scope="module")
+def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    reproduce(kalfmu_bin, fmu_dir, out)
     return out, json.loads((out / "s2" / "table.json").read_text())
 
 
 def runs(table: dict) -> dict[tuple[str, str], dict]:
-    """Every (case, filter) run of the table."""
-    return {(c["case"], f["filter"]): f for c in table["cases"] for f in c["filters"]}
+    """Every (case, filter) run of the paper's cases."""
+    return {(c["case"], f["filter"]): f for c in table["cases"] if c["published"] for f in c["filters"]}
+
+
+def unseen(table: dict) -> list[dict]:
+    """The tracks the set-up was not made for."""
+    return [c for c in table["cases"] if not c["published"]]
+
+
+def unseen_stem(case: dict) -> str:
+    """Where an unseen track's logs and comparison are, under `s2/unseen/`."""
+    return f"{case['case'].replace('/', '_')}_{case['speed'] * 3.6:.0f}kmh_{case['rate']:.0f}hz"
 
 
 def test_the_table_has_every_wheel_of_every_filter_and_case_beside_the_paper(reproduced):
     _, table = reproduced
     assert table["study"] == "S2"
     assert table["units"]["running_rmse_mean"] == "kN" and table["units"]["running_rmse_variance"] == "kN²"
-    assert [c["case"] for c in table["cases"]] == CASES
-    for case in table["cases"]:
+    assert [c["case"] for c in table["cases"] if c["published"]] == CASES
+    assert table["settings"]["quick"] is True
+    assert table["settings"]["start_values"] == {} and table["settings"]["start_values_fmu_only"] == []
+    for case in [c for c in table["cases"] if c["published"]]:
         assert case["failure"] is None, case
+        assert (case["speed"], case["rate"]) == (table["settings"]["speed"], table["settings"]["rate"])
         # The paper's wheelset-1 figures sit beside ours.
         assert case["paper"] == PAPER[case["case"]]
         assert [f["filter"] for f in case["filters"]] == FILTERS
@@ -158,10 +186,58 @@ def test_the_worst_wheels_sigma_figures_are_the_worst_of_the_four(reproduced):
 def test_the_sigma_figures_are_the_comparisons(reproduced):
     out, table = reproduced
     for case in table["cases"]:
-        comparison = json.loads((out / "s2" / f"{case['case']}.json").read_text())
+        stem = case["case"] if case["published"] else f"unseen/{unseen_stem(case)}"
+        comparison = json.loads((out / "s2" / f"{stem}.json").read_text())
         for f, run in zip(case["filters"], comparison["runs"], strict=True):
             for w, pair in zip(f["wheels"], run["pairs"], strict=True):
                 assert pair["truth"] == f"F_N{w['wheelset']}"
                 for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
                     assert w[field] == pair[field], (case["case"], f["filter"], w["wheelset"], field)
             assert f["nis"] == run["nis"], (case["case"], f["filter"])
+
+
+def test_quick_adds_one_unseen_track_without_paper_figures_run_by_the_srckf(reproduced):
+    out, table = reproduced
+    (case,) = unseen(table)
+    assert case["case"] in UNSEEN_TRACKS and case["paper"] is None and case["failure"] is None, case
+    assert 40 <= case["speed"] * 3.6 <= 160 and case["rate"] in {200.0, 1000.0}, case
+    assert [f["filter"] for f in case["filters"]] == ["SRCKF"]
+    assert (out / "s2" / "unseen" / f"{unseen_stem(case)}_srckf.mcap").is_file()
+    assert (out / "s2" / "unseen" / f"{unseen_stem(case)}.rrd").stat().st_size > 0
+
+
+def test_the_unseen_track_has_finite_correlations_its_sigma_figures_and_equals_the_library(reproduced):
+    _, table = reproduced
+    for case in unseen(table):
+        (run,) = case["filters"]
+        where = case["case"]
+        assert run["failure"] is None, (where, run)
+        assert run["fmu_vs_in_process_max_abs_difference"] == 0.0, where
+        assert isinstance(run["rejected_rows"], int) and run["rejected_rows"] >= 0, where
+        assert [w["wheelset"] for w in run["wheels"]] == [1, 2, 3, 4]
+        for w in run["wheels"]:
+            assert math.isfinite(w["correlation"]) and -1.0 <= w["correlation"] <= 1.0, (where, w)
+            assert 0.0 <= w["one_sigma_coverage"] <= w["two_sigma_coverage"] <= 1.0, (where, w)
+            assert w["weld_peak_error"] is None
+            n = w["normalised_error"]
+            assert_reading_of_its_interval(n["mean_square"], n["interval"], n["reading"], (where, w["wheelset"]))
+        assert run["worst_wheel"]["correlation_min"] == min(w["correlation"] for w in run["wheels"])
+        nis = run["nis"]
+        assert nis["ratio"] > 0 and nis["rows_used_mean"] > 0, (where, nis)
+        assert_reading_of_its_interval(nis["ratio"], nis["interval"], nis["reading"], where)
+
+
+def test_a_start_value_the_library_has_reaches_both_the_fmu_and_the_library(kalfmu_bin, fmu_dir, reproduced, tmp_path):
+    _, default = reproduced
+    proc = reproduce(kalfmu_bin, fmu_dir, tmp_path, "--set", "force_noise_intensity=2e12")
+    assert "start values, over the study's in every FMU run and in the in-process filter: force_noise_intensity=2e12" in proc.stdout
+    table = json.loads((tmp_path / "s2" / "table.json").read_text())
+    assert table["settings"]["start_values"] == {"force_noise_intensity": 2e12}
+    assert table["settings"]["start_values_fmu_only"] == []
+    changed = {(c["case"], f["filter"]): f for c in table["cases"] for f in c["filters"]}
+    before = {(c["case"], f["filter"]): f for c in default["cases"] for f in c["filters"]}
+    assert changed.keys() == before.keys()
+    for key, run in changed.items():
+        # The runs moved, and the in-process filter moved with the FMU.
+        assert run["wheels"][0]["rmse"] != before[key]["wheels"][0]["rmse"], key
+        assert run["fmu_vs_in_process_max_abs_difference"] == 0.0, key

@@ -11,6 +11,12 @@ the `table.json` it writes beside its logs.
 - Beside its accuracy, each filter's σ of speed and position is checked by the analyzer's
   figures, which the table carries as the comparison has them: their 1σ and 2σ coverage,
   mean (e/σ)² with its reading, and the run's NIS/rows with its reading.
+- Beside the paper's run with the default faults, the same run with the frequent faults
+  (ten times the rates), a case the settings were not chosen on: marked so, with more
+  faults of every kind, ours and the paper's detections and accuracy, the FMU still equal
+  to the library.
+- Start values (`--set`) reach every FMU run and the in-process filter it is checked
+  against; one the in-process filter does not take reaches the FMU only, and is listed.
 """
 
 from __future__ import annotations
@@ -34,20 +40,30 @@ def reproduced(kalfmu_bin, fmu_dir, tmp_path_factory):
         text=True,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
+    (out / "stdout.txt").write_text(proc.stdout)
     return out, json.loads((out / "s4" / "table.json").read_text())
 
 
 @pytest.fixture(scope="module")
 def paper_run(reproduced) -> dict:
-    """The paper's test run, the only profile with --quick."""
+    """The paper's test run with the default faults, the first of --quick's two cases."""
     _, table = reproduced
-    assert [p["profile"] for p in table["profiles"]] == ["paper"]
+    cases = [(p["case"], p["profile"], p["faults"], p["tuned_on"]) for p in table["profiles"]]
+    assert cases == [("paper", "paper", "default", True), ("paper_frequent", "paper", "frequent", False)]
     return table["profiles"][0]
+
+
+@pytest.fixture(scope="module")
+def frequent_run(reproduced) -> dict:
+    """The paper's test run with the frequent faults: not tuned on."""
+    _, table = reproduced
+    return table["profiles"][1]
 
 
 def test_the_table_has_the_papers_figures_and_every_estimator(reproduced, paper_run):
     _, table = reproduced
     assert table["study"] == "S4" and table["seed"] == 1
+    assert table["settings"] == {"seed": 1, "quick": True, "start_values": {}, "start_values_fmu_only": []}
     assert table["paper"] == {
         "mean_abs_error_reduction_from_raw": 0.326,
         "raw_average_speed_range": 11.09,
@@ -138,3 +154,117 @@ def test_the_sigma_figures_are_the_comparisons(reproduced, paper_run):
             for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
                 assert f[signal][field] == pair[field], (f["filter"], signal, field)
         assert f["nis"] == run["nis"], f["filter"]
+
+
+def detections(run: dict, detector: str) -> dict:
+    """`{kind: (injected, detected)}` of a run's `paper_detection` or `our_detection`."""
+    return {k["name"]: (k["injected"], k["detected"]) for k in run["comparison"][detector]["kinds"]}
+
+
+def test_the_frequent_faults_are_a_case_not_tuned_on_with_more_faults_of_every_kind(paper_run, frequent_run):
+    """The same run, seed and noise; only the faults come ten times as often: more of
+    each kind that has a rate (the offsets, one per channel, are the same)."""
+    assert frequent_run["telegrams"] == paper_run["telegrams"]
+    assert frequent_run["duration"] == paper_run["duration"]
+    default, frequent = detections(paper_run, "our_detection"), detections(frequent_run, "our_detection")
+    assert list(frequent) == list(default)
+    for kind in ["dropout", "resend", "spike", "slot slip"]:
+        assert frequent[kind][0] > default[kind][0], kind
+    assert frequent["offset"][0] == default["offset"][0] == 4
+    # The ground truth is the same for both detectors.
+    assert {k: v[0] for k, v in detections(frequent_run, "paper_detection").items()} == {
+        k: v[0] for k, v in frequent.items()
+    }
+
+
+def test_on_the_frequent_faults_both_pipelines_are_scored_and_the_fmu_equals_the_library(frequent_run):
+    differences = {f["filter"]: f["fmu_vs_in_process_max_abs_difference"] for f in frequent_run["filters"]}
+    assert differences == {name: 0.0 for name in FILTERS}
+    c = frequent_run["comparison"]
+    for name in ESTIMATORS:
+        assert 0.0 <= c[name]["in_etcs_band_fraction"] <= 1.0, name
+        assert c[name]["speed"]["mean_abs_error"] > 0 and c[name]["position_max_abs_error"] > 0, name
+    for detector in ["paper_detection", "our_detection"]:
+        for kind, (injected, detected) in detections(frequent_run, detector).items():
+            assert 0 <= detected <= injected, (detector, kind)
+        d = c[detector]
+        assert 0.0 <= d["false_alarm_fraction"] == d["false_alarms"] / d["channel_telegrams"] < 1.0, detector
+    # Ours still beats the raw average, on speed and on position.
+    assert c["ours"]["speed"]["mean_abs_error"] < c["raw_average"]["speed"]["mean_abs_error"]
+    assert c["ours"]["position_max_abs_error"] < c["raw_average"]["position_max_abs_error"]
+    for f in frequent_run["filters"]:
+        assert f["failure"] is None and f["nis"]["ratio"] > 0, f["filter"]
+        assert 0.0 <= f["speed"]["one_sigma_coverage"] <= f["speed"]["two_sigma_coverage"] <= 1.0, f["filter"]
+
+
+def test_the_printed_table_marks_the_frequent_faults_and_leaves_the_papers_figures_out(reproduced):
+    out, _ = reproduced
+    text = (out / "stdout.txt").read_text()
+    heading = next(line for line in text.splitlines() if line.startswith("paper_frequent: "))
+    assert "not the paper's" in heading and "×10" in heading, heading
+    paper_lines = [line for line in text.splitlines() if "the paper: mean error" in line]
+    assert len(paper_lines) == 1, "the paper's figures beside its own case only"
+    assert "the paper has no figures of frequent faults" in text
+    assert (out / "s4" / "paper_frequent.rrd").stat().st_size > 0
+
+
+def reproduce_with(kalfmu_bin, fmu_dir, out, *assignments: str) -> tuple[str, dict]:
+    """`reproduce --study s4 --quick` with `--set` of each of `assignments`: its output
+    and its table."""
+    sets = [arg for a in assignments for arg in ("--set", a)]
+    proc = subprocess.run(
+        [str(kalfmu_bin), "reproduce", "--study", "s4", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(out)]
+        + sets,
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc.stdout, json.loads((out / "s4" / "table.json").read_text())
+
+
+def test_start_values_reach_the_fmu_and_the_in_process_filter_alike(kalfmu_bin, fmu_dir, reproduced, tmp_path):
+    """Values of the tuning (the jerk, one channel's noise): every FMU run and the
+    in-process filter it is checked against take them, and stay equal to the last bit;
+    ours moves with them."""
+    stdout, table = reproduce_with(kalfmu_bin, fmu_dir, tmp_path, "jerk_intensity=3", "r_P_tail_left_std=0.002")
+    assert table["settings"]["start_values"] == {"jerk_intensity": 3.0, "r_P_tail_left_std": 0.002}
+    assert table["settings"]["start_values_fmu_only"] == []
+    header = stdout.splitlines()[1]
+    assert header.startswith("start values") and "jerk_intensity=" in header and "r_P_tail_left_std=" in header
+    for case in table["profiles"]:
+        differences = {f["filter"]: f["fmu_vs_in_process_max_abs_difference"] for f in case["filters"]}
+        assert differences == {name: 0.0 for name in FILTERS}, case["case"]
+    # Logged as the FMU was given them.
+    from mcap.reader import make_reader
+
+    with open(tmp_path / "s4" / "paper_srckf.mcap", "rb") as f:
+        metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}["kalfmu"]
+    parameters = json.loads(metadata["parameters"])
+    assert parameters["jerk_intensity"] == 3.0 and parameters["r_P_tail_left_std"] == 0.002
+    assert parameters["r_P_head_left_std"] == 1.5e-3, "the other channels keep the study's"
+    _, untouched = reproduced
+    mean_error = lambda t: t["profiles"][0]["comparison"]["ours"]["speed"]["mean_abs_error"]  # noqa: E731
+    assert mean_error(table) != mean_error(untouched)
+
+
+def test_a_start_value_the_in_process_filter_does_not_have_is_the_fmus_only(kalfmu_bin, fmu_dir, tmp_path):
+    """`gate_probability` (the FMU's supervisor) reaches the FMU runs, which the table
+    and the `vs library` line say; the runs still succeed."""
+    stdout, table = reproduce_with(kalfmu_bin, fmu_dir, tmp_path, "gate_probability=0.999999")
+    assert table["settings"]["start_values_fmu_only"] == ["gate_probability"]
+    vs_library = [line for line in stdout.splitlines() if line.startswith("vs library")]
+    assert len(vs_library) == 2 and all("in the FMU only" in line and "gate_probability" in line for line in vs_library)
+    for case in table["profiles"]:
+        for f in case["filters"]:
+            assert f["failure"] is None and f["fmu_vs_in_process_max_abs_difference"] >= 0.0, f["filter"]
+
+
+def test_an_unknown_start_value_is_refused_before_any_run(kalfmu_bin, fmu_dir, tmp_path):
+    proc = subprocess.run(
+        [str(kalfmu_bin), "reproduce", "--study", "s4", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)]
+        + ["--set", "jerk_intensty=3"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode != 0 and "jerk_intensty" in proc.stderr, proc.stderr
+    assert not (tmp_path / "s4" / "paper_ckf.mcap").exists(), "refused before any run"

@@ -67,10 +67,16 @@ def test_the_missile_flies_20_s_without_nan(run):
     np.testing.assert_allclose(run.states[0], start, rtol=1e-12, atol=1e-9)
 
 
-def test_the_manoeuvre_is_the_files(run):
-    """Read from truth/data/s5_manoeuvre.json, not copied: the sum of the segments
-    covering t, end-exclusive."""
-    data = json.loads(fly.MANOEUVRE.read_text())
+@pytest.fixture(scope="module")
+def roll_turn_run():
+    """The 20 s flight through the second manoeuvre, `roll-turn`, seed 1, no estimator."""
+    return fly.fly(seed=1, manoeuvre=fly.Manoeuvre.named("roll-turn"))
+
+
+def assert_deflections_are_the_files(run, path: Path) -> None:
+    """The run's deflections are the manoeuvre file's: the sum of the segments covering t,
+    end-exclusive."""
+    data = json.loads(path.read_text())
     assert run.time[-1] == pytest.approx(data["duration"])
     for i, name in enumerate(fly.DEFLECTION_NAMES):
         segments = data["controls"][name]
@@ -86,6 +92,32 @@ def test_the_manoeuvre_is_the_files(run):
         assert run.deflections[k - 1, i] - run.deflections[k, i] == pytest.approx(
             math.radians(degrees) - sum(math.radians(d) for a, b, d in segments if a <= t1 < b)
         )
+
+
+def test_the_manoeuvre_is_the_files(run):
+    """Read from truth/data/s5_manoeuvre.json, not copied."""
+    assert_deflections_are_the_files(run, fly.MANOEUVRE)
+    assert run.metadata["manoeuvre"] == "truth/data/s5_manoeuvre.json"
+    assert run.metadata["manoeuvre_name"] == "standard"
+
+
+def test_the_roll_turn_manoeuvre_is_its_file_the_one_the_6dof_flies(run, roll_turn_run):
+    """`roll-turn` is truth/data/s5_manoeuvre_roll_turn.json, the file the 6-DOF's
+    `Manoeuvre::named("roll-turn")` compiles in: other deflections than the standard's,
+    the same change of the coefficients at 10 s, and a flight that stays finite."""
+    assert fly.MANOEUVRES["roll-turn"] == fly.ROOT / "truth" / "data" / "s5_manoeuvre_roll_turn.json"
+    assert "s5_manoeuvre_roll_turn.json" in (fly.ROOT / "truth" / "src" / "s5" / "manoeuvre.rs").read_text()
+    assert_deflections_are_the_files(roll_turn_run, fly.MANOEUVRES["roll-turn"])
+    assert roll_turn_run.metadata["manoeuvre"] == "truth/data/s5_manoeuvre_roll_turn.json"
+    assert roll_turn_run.metadata["manoeuvre_name"] == "roll-turn"
+    assert not np.array_equal(roll_turn_run.deflections, run.deflections)
+    np.testing.assert_array_equal(roll_turn_run.coefficients, run.coefficients)
+    assert np.all(np.isfinite(roll_turn_run.states)) and np.all(np.isfinite(roll_turn_run.measurements))
+    # Roll-heavy: the roll rate moves more than in the standard manoeuvre.
+    roll_rms = lambda r: np.sqrt(np.mean(r.states[:, 7] ** 2))  # noqa: E731
+    assert roll_rms(roll_turn_run) > roll_rms(run)
+    with pytest.raises(ValueError, match="unknown manoeuvre"):
+        fly.Manoeuvre.named("loop")
 
 
 def test_the_coefficients_change_at_10_s_and_the_forces_jump(run):
@@ -412,3 +444,50 @@ def test_the_command_line_records_the_filter_of_set(s5_fmu, tmp_path, capsys):
         assert metadata["fmu"] == "kalfmu_s5_missile"
         labels[value] = metadata["filter"]
     assert labels == {1: "CKF", 4: "UKF"}
+
+
+def ssv_file(path: Path, values: dict[str, float]) -> Path:
+    """An SSP parameter-value file of `values`, as `start_values::ssv` writes one."""
+    parameters = "".join(
+        f'<ssv:Parameter name="{n}"><ssv:Real value="{v:e}"/></ssv:Parameter>' for n, v in values.items()
+    )
+    path.write_text(
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<ssv:ParameterSet xmlns:ssv="{fly.SSV[1:-1]}" version="1.0" name="test">'
+        f"<ssv:Parameters>{parameters}</ssv:Parameters></ssv:ParameterSet>\n"
+    )
+    return path
+
+
+def test_the_command_line_flies_a_manoeuvre_by_name_with_start_values_of_both_forms(s5_fmu, tmp_path):
+    """`--manoeuvre roll-turn --values FILE.ssv --set …`: the run flies that manoeuvre, and
+    the FMU takes the file's values and then `--set`'s, a later one replacing an earlier
+    one, each by its type (rk4_substeps an Integer, filter an Enumeration): the log records
+    what the FMU reports of them after initialisation."""
+    values = ssv_file(tmp_path / "tuned.ssv", {"r_Nx_std": 2e-3, "rk4_substeps": 2, "filter": 1})
+    log = tmp_path / "roll_turn.mcap"
+    fly.main(
+        [str(log), "--manoeuvre", "roll-turn", "--duration", "0.05", "--fmu", str(s5_fmu)]
+        + ["--values", str(values), "--set", "filter=4", "--set", "q_rate_std=2e-6"]
+    )
+    metadata = logged_metadata(log)
+    assert metadata["manoeuvre_name"] == "roll-turn"
+    assert metadata["filter"] == "UKF", "--set after --values"
+    assert json.loads(metadata["fmu_start_values"]) == {
+        "r_Nx_std": 2e-3,
+        "rk4_substeps": 2.0,
+        "filter": 4.0,
+        "q_rate_std": 2e-6,
+    }
+    assert fly.read_ssv(values) == {"r_Nx_std": 2e-3, "rk4_substeps": 2.0, "filter": 1.0}
+
+
+def test_a_start_value_of_the_wrong_name_or_type_is_refused_before_the_flight(s5_fmu, tmp_path):
+    log = tmp_path / "refused.mcap"
+    with pytest.raises(ValueError, match="no parameter named mass_x"):
+        fly.main([str(log), "--duration", "0.05", "--fmu", str(s5_fmu), "--set", "mass_x=1"])
+    with pytest.raises(ValueError, match="rk4_substeps: 1.5 is not an Integer"):
+        fly.main([str(log), "--duration", "0.05", "--fmu", str(s5_fmu), "--set", "rk4_substeps=1.5"])
+    with pytest.raises(SystemExit):
+        fly.main([str(log), "--duration", "0.05", "--set", "filter=1"])  # no FMU to give it to
+    assert not log.exists()

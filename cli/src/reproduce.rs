@@ -30,15 +30,30 @@
 //! `mean`, a speed error's).
 //!
 //! - **S1** (`studies::s1::reproduce::Table`): `settings` (`duration`, `rate`,
-//!   `noise_fraction`, `seed`, `rmse_window`); `cases[]`, each with `case`, `paper`
-//!   (`correlation`, `running_rmse_peak`, `running_rmse_max_converged`), `failure`, and
-//!   `filters[]`: `filter`, `failure`, `feedthrough` (`correlation`, `rmse_converged`,
+//!   `noise_fraction`, `seed`, `rmse_window`, `quick`, `start_values`: the `--set` and
+//!   `--values` given, by name, `{}` without any); `cases[]`, the paper's four and then
+//!   the unseen ones (`truth::s1::Case::UNSEEN`, loads the set-up was not made for: all
+//!   six at 1 %, the run's and 5 % noise, or with `--quick` one), each with `case`,
+//!   `published` (`false` for an unseen case), `noise_fraction` (its runs'), `paper`
+//!   (`correlation`, `running_rmse_peak`, `running_rmse_max_converged`; `null` for an
+//!   unseen case), `failure`, and `filters[]` (every kind; an unseen case the SRCKF only):
+//!   `filter`, `failure`, `feedthrough` (`correlation`, `rmse_converged`,
 //!   `running_rmse_peak`, `running_rmse_max_converged`, `convergence_time`,
 //!   `psd_agreement_band` `[low, high]`, and the σ figures of the load `F`) and
-//!   `after_step` (`correlation`, `rmse_converged`), and `nis`.
-//! - **S2** (`studies::s2::reproduce::Table`): `settings`; `cases[]`, each with `case`,
-//!   `paper` (wheelset 1: `correlation`, `running_rmse_mean`, `running_rmse_variance`),
-//!   `failure`, and `filters[]` (every kind, not only the SRCKF the first table prints):
+//!   `after_step` (`correlation`, `rmse_converged`), and `nis`. An unseen case's logs and
+//!   comparison are in `<out>/s1/unseen/` (`<case>_noise<percent>…`, `2p0` for 2 %).
+//! - **S2** (`studies::s2::reproduce::Table`): `settings` (`speed`, `duration`, `rate`,
+//!   `seed`, `noise_fraction`, `settle`, `rmse_window`, `quick`, `start_values`, and
+//!   `start_values_fmu_only`: those the in-process filter has no parameter for, which
+//!   reach the FMU only, so that `fmu_vs_in_process_max_abs_difference` then measures
+//!   their effect); `cases[]`, the paper's three and then the unseen tracks
+//!   (`truth::s2::cases::Scenario::UNSEEN`: `random/german-low` at 40 km/h,
+//!   `random/german-high` at 160, `random/fra6` at 100, at the run's rate and then the
+//!   other of 200 Hz and 1 kHz, or with `--quick` one), each with `case`, `published`,
+//!   `speed` and `rate` (its runs'), `paper` (wheelset 1: `correlation`,
+//!   `running_rmse_mean`, `running_rmse_variance`; `null` for an unseen track), `failure`,
+//!   and `filters[]` (every kind, not only the SRCKF the first table prints; an unseen
+//!   track the SRCKF only, its logs in `<out>/s2/unseen/`):
 //!   `filter`, `failure`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference`,
 //!   `worst_wheel` (the second table's columns: `correlation_min`,
 //!   `rmse_over_dynamic_std_max`, `weld_peak_error_max_abs`, `two_sigma_coverage_min`,
@@ -49,21 +64,32 @@
 //!   `rmse_over_dynamic_std`, `weld_peak_error`, `psd_agreement_band`,
 //!   `two_sigma_coverage`, `after_step_correlation`, `one_sigma_coverage`,
 //!   `normalised_error`) and `nis`.
-//! - **S4** (`studies::s4::reproduce::Table`): `seed`; `paper`
-//!   (`mean_abs_error_reduction_from_raw`, `raw_average_speed_range`,
-//!   `paper_fused_ukf_speed_range`); `profiles[]`, each with `profile`, `duration`,
-//!   `telegrams`, `filters[]` (`filter`, `failure`, `fmu_vs_in_process_max_abs_difference`,
-//!   `speed` and `position`, each with its σ figures, and `nis`),
-//!   `compared_filter` and `comparison`: `raw_average`, `paper_fused`, `paper_fused_ukf`
-//!   and `ours`, each with `speed` (`mean_abs_error`, `max_abs_error`, `speed_range`,
-//!   `error_range`, `true_range`, …), `position_max_abs_error`, `in_etcs_band_fraction`
-//!   and `mean_abs_error_reduction_from_raw`; `paper_detection` and `our_detection`, each
-//!   with `kinds[]` (`name`, `injected`, `detected`), `false_alarms`,
-//!   `channel_telegrams` and `false_alarm_fraction`.
-//! - **S5** (`studies::s5::reproduce::Table`): `settings`, `paper_claim`; `truths[]`
-//!   (`6dof`, then `jsbsim`), each with `truth`, `failures[]` (`filter`, `failure`),
-//!   `tables[]` (`table` `Table 1` or `Table 2`, `time`, `coefficients[]`: `coefficient`,
-//!   `true_value`, `paper_svd_ckf`, `paper_svd_ckf_relative_error`, `relative_error` by
+//! - **S4** (`studies::s4::reproduce::Table`): `seed`; `settings` (`seed`, `quick`,
+//!   `start_values`, the values given by name, and `start_values_fmu_only`, those the
+//!   in-process filter does not take); `paper` (`mean_abs_error_reduction_from_raw`,
+//!   `raw_average_speed_range`, `paper_fused_ukf_speed_range`); `profiles[]`, one per case
+//!   (`paper`, `paper_frequent`, and without `--quick` `high_speed`,
+//!   `high_speed_frequent`), each with `case`, `profile` (the motion: `paper` or
+//!   `high_speed`), `faults` (`default` or `frequent`, the default's rates ×10), `tuned_on`
+//!   (`false` for `frequent`: a case the settings were not chosen on, not the paper's),
+//!   `duration`, `telegrams`, `filters[]` (`filter`, `failure`,
+//!   `fmu_vs_in_process_max_abs_difference`, `speed` and `position`, each with its σ
+//!   figures, and `nis`), `compared_filter` and `comparison`: `raw_average`,
+//!   `paper_fused`, `paper_fused_ukf` and `ours`, each with `speed` (`mean_abs_error`,
+//!   `max_abs_error`, `speed_range`, `error_range`, `true_range`, …),
+//!   `position_max_abs_error`, `in_etcs_band_fraction` and
+//!   `mean_abs_error_reduction_from_raw`; `paper_detection` and `our_detection`, each with
+//!   `kinds[]` (`name`, `injected`, `detected`), `false_alarms`, `channel_telegrams` and
+//!   `false_alarm_fraction`.
+//! - **S5** (`studies::s5::reproduce::Table`): `settings` (`seed`, `sample_time`,
+//!   `noise_scale`, `quick`, `start_values`, `start_values_fmu_only`), `paper_claim`;
+//!   `truths[]`, one per case (`6dof`, `6dof_roll_turn`, `jsbsim`, and without `--quick`
+//!   `jsbsim_roll_turn`), each with `truth` (`6dof` or `jsbsim`), `manoeuvre` (`standard`,
+//!   the published one, or `roll-turn`), `tuned_on` (`false` for `roll-turn`: a manoeuvre
+//!   the tuning was not chosen on, not the paper's), `case` (the stem of its logs),
+//!   `failures[]` (`filter`, `failure`), `tables[]` (`table` `Table 1` or `Table 2`,
+//!   `time`, `coefficients[]`: `coefficient`, `true_value`, `paper_svd_ckf`,
+//!   `paper_svd_ckf_relative_error` (both `null` for `roll-turn`), `relative_error` by
 //!   filter kind) and `filters[]` (`filter`, `back_within_3_percent`,
 //!   `back_within_1_percent`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference` (these
 //!   two for the first truth only), `nees` and `nis`, `one_sigma_coverage_min` and
@@ -83,8 +109,8 @@ pub struct Args {
     /// Which study to run: s1, s2, s3, s4, s5 or all.
     #[arg(long, default_value = "all")]
     pub study: String,
-    /// A short run for smoke tests (S1: 10 s of signal; S2: 2.5 s); the figures are then not
-    /// the published set-up.
+    /// A short run for smoke tests (S1: 10 s of signal; S2: 2.5 s; each with one of its
+    /// unseen cases instead of all); the figures are then not the published set-up.
     #[arg(long)]
     pub quick: bool,
     /// Seed of the random load or track, and of the measurement noise.
@@ -155,7 +181,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     ..truth::s1::Settings::default()
                 };
                 settings.validate().map_err(anyhow::Error::msg)?;
-                s1::reproduce::report(&settings, &start_values, &args.fmu_dir, &args.out)?
+                s1::reproduce::report(&settings, &start_values, args.quick, &args.fmu_dir, &args.out)?
             }
             "s2" => {
                 let settings = truth::s2::cases::Settings {
@@ -171,13 +197,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     ..truth::s2::cases::Settings::default()
                 };
                 settings.validate().map_err(anyhow::Error::msg)?;
-                s2::reproduce::report(&settings, &start_values, &args.fmu_dir, &args.out)?
+                s2::reproduce::report(&settings, &start_values, args.quick, &args.fmu_dir, &args.out)?
             }
             "s4" => s4::reproduce::report(args.seed, args.quick, &start_values, &args.fmu_dir, &args.out)?,
             "s5" => {
                 let settings =
                     truth::s5::flight::Settings { seed: args.seed, ..truth::s5::flight::Settings::default() };
-                s5::reproduce::report(&settings, &start_values, &args.fmu_dir, &args.out, &args.python)?
+                s5::reproduce::report(&settings, &start_values, args.quick, &args.fmu_dir, &args.out, &args.python)?
             }
             _ => unreachable!("every built study has a table"),
         };

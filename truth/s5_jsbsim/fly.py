@@ -4,7 +4,14 @@ the twelve measurements in the paper's axes and units, with seeded white noise �
 the three deflections to an estimator, as a flight simulator would, then logs the run in
 the kalfmu MCAP format (docs/log-format.md) for the analyzer.
 
-    python truth/s5_jsbsim/fly.py OUT.mcap [--seed 1] [--duration 20] [--fmu kalfmu_s5_missile.fmu]
+    python truth/s5_jsbsim/fly.py OUT.mcap [--seed 1] [--duration 20] [--manoeuvre standard]
+        [--fmu kalfmu_s5_missile.fmu [--values FILE.ssv …] [--set NAME=VALUE …]]
+
+`--manoeuvre NAME` flies one of `MANOEUVRES` (`standard`, the published one, or
+`roll-turn`): the same files `truth::s5::manoeuvre::Manoeuvre::named` compiles in, so both
+truths fly the same deflections. `--values` (SSP parameter-value files, as `kalfmu-tune
+--ssv` writes them) and then `--set` give the FMU's start values, a later one replacing an
+earlier one, each set by its variable's type before initialisation ends.
 
 As a module: `fly(...)` returns a `Run` (arrays per 5 ms sample) and, given `log`, writes
 the log; `estimator` is any callable `(t, measurements[12], deflections[3]) -> {name:
@@ -50,6 +57,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 MANOEUVRE = ROOT / "truth" / "data" / "s5_manoeuvre.json"
+#: The manoeuvres by name, as `truth::s5::manoeuvre::Manoeuvre::named` knows them: the
+#: published one, and `roll-turn`, one the estimators were not tuned on.
+MANOEUVRES = {"standard": MANOEUVRE, "roll-turn": ROOT / "truth" / "data" / "s5_manoeuvre_roll_turn.json"}
 
 sys.path.insert(0, str(ROOT / "tests"))
 from mcap_example import KalfmuLog, Signal  # noqa: E402  (the log writer, shared with the example)
@@ -199,6 +209,7 @@ class Manoeuvre:
     duration: float
     change_at: float
     segments: dict  # name -> list of (start ns, end ns, rad)
+    source: Path = MANOEUVRE  # the file it was read from
 
     @classmethod
     def load(cls, path: Path = MANOEUVRE) -> "Manoeuvre":
@@ -207,7 +218,14 @@ class Manoeuvre:
             name: [(_ns(a), _ns(b), math.radians(deg)) for a, b, deg in data["controls"][name]]
             for name in DEFLECTION_NAMES
         }
-        return cls(float(data["duration"]), float(data["change_at"]), segments)
+        return cls(float(data["duration"]), float(data["change_at"]), segments, Path(path))
+
+    @classmethod
+    def named(cls, name: str) -> "Manoeuvre":
+        """The manoeuvre `name` of `MANOEUVRES`."""
+        if name not in MANOEUVRES:
+            raise ValueError(f"unknown manoeuvre {name!r}; expected one of {', '.join(MANOEUVRES)}")
+        return cls.load(MANOEUVRES[name])
 
     def deflections(self, t: float) -> np.ndarray:
         """The three deflections (rad) at t (s); t is compared in integer ns."""
@@ -230,6 +248,12 @@ class Manoeuvre:
 
 def _ns(t: float) -> int:
     return int(round(t * 1e9))
+
+
+def _shown(path: Path) -> str:
+    """A file's path as a log names it: from the repository's root where it is inside."""
+    path = Path(path).resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
 # --------------------------------------------------------------------------
@@ -494,10 +518,12 @@ def fly(
         "seed": str(seed),
         "filter": getattr(estimator, "name", type(estimator).__name__) if estimator is not None else "none",
         **({"fmu": estimator.fmu} if getattr(estimator, "fmu", None) else {}),
+        **({"fmu_start_values": json.dumps(estimator.start_values)} if getattr(estimator, "start_values", None) else {}),
         "parameters": json.dumps(parameters),
         "software": f"JSBSim {jsbsim.__version__} (PyPI jsbsim); kalfmu truth/s5_jsbsim/fly.py",
         "truth": "JSBSim, truth/s5_jsbsim/missile.xml: WGS84 rotating Earth with J2 gravity, US 1976 atmosphere",
-        "manoeuvre": str(MANOEUVRE.relative_to(ROOT)),
+        "manoeuvre": _shown(manoeuvre.source),
+        "manoeuvre_name": next((n for n, f in MANOEUVRES.items() if f.resolve() == Path(manoeuvre.source).resolve()), ""),
         "driver": "truth/s5_jsbsim/fly.py: every 5 ms the estimator gets the measurements and deflections of t",
     }
     if log is not None:
@@ -561,8 +587,11 @@ class FmuEstimator:
 
     `inputs` maps each FMU input to one of our signals (MEASUREMENT_NAMES and
     DEFLECTION_NAMES); by default each of ours feeds the input of the same name, the
-    estimator model's names (`Missile6Dof::MEASUREMENT_NAMES`), which the S5 FMU, not
-    written yet, is expected to use. `parameters` are set before initialisation ends.
+    estimator model's names (`Missile6Dof::MEASUREMENT_NAMES`), which the S5 FMU uses.
+    `parameters` (start values by name) are set before
+    initialisation ends, each by its variable's type: a Real by fmi2SetReal, an Integer or
+    an Enumeration (the filter) by fmi2SetInteger, which must be integral, a Boolean by
+    fmi2SetBoolean, 0 or 1; `start_values` is what the FMU reports of them afterwards.
 
     `name` (the run's metadata `filter`) is the filter kind the FMU runs, read back after
     initialisation from its `filter` parameter and named by the item of its enumeration
@@ -585,6 +614,9 @@ class FmuEstimator:
         unknown = [s for s in inputs.values() if s not in ours]
         if unknown:
             raise ValueError(f"no signal named {unknown} (we have {ours})")
+        parameters = parameters or {}
+        # Checked before anything is instantiated, so that a misspelt name costs no run.
+        typed = [(variables.get(n), _typed(fmu, variables.get(n), n, value)) for n, value in parameters.items()]
         self._inputs = [variables[n].valueReference for n in inputs]
         self._sources = [ours.index(s) for s in inputs.values()]
         self.outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
@@ -601,16 +633,18 @@ class FmuEstimator:
         self._fmu.instantiate()
         self._fmu.setupExperiment(startTime=0.0)
         self._fmu.enterInitializationMode()
-        for name, value in (parameters or {}).items():
-            if name not in variables or variables[name].causality != "parameter":
-                raise ValueError(f"{fmu}: no parameter named {name}")
-            # Enumerations (the filter) and Integers go through fmi2SetInteger.
-            if variables[name].type in ("Integer", "Enumeration"):
-                self._fmu.setInteger([variables[name].valueReference], [int(value)])
-            else:
-                self._fmu.setReal([variables[name].valueReference], [float(value)])
+        for variable, value in typed:
+            {"Real": self._fmu.setReal, "Integer": self._fmu.setInteger, "Boolean": self._fmu.setBoolean}[
+                _setter(variable)
+            ]([variable.valueReference], [value])
         self._fmu.exitInitializationMode()
+        self.start_values = {variable.name: self._read(variable) for variable, _ in typed}
         self.name = self._filter_kind(variables.get("filter")) or self.fmu
+
+    def _read(self, variable) -> float:
+        """The value the FMU reports of `variable`, as a number."""
+        get = {"Real": self._fmu.getReal, "Integer": self._fmu.getInteger, "Boolean": self._fmu.getBoolean}
+        return float(get[_setter(variable)]([variable.valueReference])[0])
 
     def _filter_kind(self, variable) -> str | None:
         """The name of the filter kind the FMU runs: the item of the `filter` enumeration
@@ -640,12 +674,75 @@ class FmuEstimator:
         shutil.rmtree(self._unzipped, ignore_errors=True)
 
 
+def _setter(variable) -> str:
+    """Which fmi2Set/Get call a variable's type takes: Real, Integer (Enumerations too) or
+    Boolean."""
+    return "Integer" if variable.type == "Enumeration" else variable.type
+
+
+def _typed(fmu: Path, variable, name: str, value: float):
+    """`value` as the parameter `variable` (named `name`, None if the FMU has none) takes
+    it; a ValueError says what is wrong, as the Rust master says it."""
+    if variable is None or variable.causality != "parameter":
+        raise ValueError(f"{fmu}: no parameter named {name}")
+    kind = _setter(variable)
+    if kind == "Real":
+        return float(value)
+    if kind == "Integer":
+        if not float(value).is_integer():
+            raise ValueError(f"start value {name}: {value} is not an Integer, which the parameter is")
+        return int(value)
+    if kind == "Boolean":
+        if float(value) not in (0.0, 1.0):
+            raise ValueError(f"start value {name}: a Boolean is 0 or 1, got {value}")
+        return bool(value)
+    raise ValueError(f"start value {name}: {variable.type} parameters are not taken")
+
+
+#: The SSV namespace (SSP 1.0, SystemStructureParameterValues), as kalfmu-tune writes it.
+SSV = "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}"
+
+
+def read_ssv(path: Path) -> dict[str, float]:
+    """The start values of an SSP parameter-value file (`ssv:ParameterSet`, as
+    `start_values::ssv` writes it): each `ssv:Parameter`'s name with the value of its
+    `ssv:Real`, `ssv:Integer` or `ssv:Boolean` (true/false as 1/0), in order."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    if root.tag != f"{SSV}ParameterSet":
+        raise ValueError(f"{path}: not an SSV file (its root is {root.tag}, not ssv:ParameterSet)")
+    values = {}
+    for parameter in root.iter(f"{SSV}Parameter"):
+        name = parameter.get("name")
+        for kind in ("Real", "Integer", "Boolean"):
+            typed = parameter.find(f"{SSV}{kind}")
+            if typed is not None:
+                text = typed.get("value")
+                values[name] = float({"true": 1, "false": 0}.get(text, text)) if kind == "Boolean" else float(text)
+                break
+        else:
+            raise ValueError(f"{path}: parameter {name} is not a Real, Integer or Boolean")
+    return values
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description="JSBSim flies S5's missile; logs the run in the kalfmu MCAP format.")
     parser.add_argument("out", type=Path, help="the MCAP log to write")
     parser.add_argument("--seed", type=int, default=1, help="the measurement noise's seed")
     parser.add_argument("--duration", type=float, help="seconds (default: the manoeuvre's 20 s)")
+    parser.add_argument(
+        "--manoeuvre", choices=list(MANOEUVRES), default="standard", help="the manoeuvre flown (default: standard)"
+    )
     parser.add_argument("--fmu", type=Path, help="an estimator FMU to drive (e.g. kalfmu_s5_missile.fmu)")
+    parser.add_argument(
+        "--values",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="FILE.ssv",
+        help="FMU start values from an SSP parameter-value file (repeatable; applied before --set)",
+    )
     parser.add_argument(
         "--set",
         action="append",
@@ -655,14 +752,21 @@ def main(argv: list[str] | None = None) -> None:
     )
     args = parser.parse_args(argv)
     parameters = {}
+    for file in args.values:
+        parameters.update(read_ssv(file))
     for item in args.set:
         name, _, value = item.partition("=")
-        if not value:
+        if not name or not value:
             parser.error(f"--set {item}: expected NAME=VALUE")
-        parameters[name] = float(value)
+        try:
+            parameters[name] = float(value)
+        except ValueError:
+            parser.error(f"--set {item}: {value!r} is not a number")
+    if parameters and not args.fmu:
+        parser.error("--set and --values give an FMU's start values: name the FMU with --fmu")
     estimator = FmuEstimator(args.fmu, parameters) if args.fmu else None
     try:
-        run = fly(args.duration, args.seed, estimator, args.out)
+        run = fly(args.duration, args.seed, estimator, args.out, manoeuvre=Manoeuvre.named(args.manoeuvre))
     finally:
         if estimator is not None:
             estimator.close()

@@ -2,13 +2,16 @@
 //! fault of `s1/faults.rs` injected; prints per run the false rejections,
 //! the detection delay, the load error in σ and the recovery after a true
 //! step. The runs are independent: they go to both cores, and `--shard K/N`
-//! runs every N-th one (from the K-th) for a batch system.
+//! runs every N-th one (from the K-th) for a batch system. `--set` and
+//! `--values` change the study's tuning (`s1::Tuning::set`) in every run.
 
 use std::fmt::Write as _;
 
 use estimator::{FilterKind, SupervisorSettings};
+use start_values::StartValues;
 
-use crate::s1::faults::{inject, run, Fault};
+use crate::s1::faults::{inject, run_with, Fault};
+use crate::s1::Tuning;
 use crate::shard::{self, Shard};
 use truth::s1::{Case, Settings};
 
@@ -40,6 +43,11 @@ pub struct Args {
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
+    /// Start values over the study's tuning, by the FMU's parameter names (those of
+    /// `s1::Tuning`; the chain and the supervisor are not the in-process filter's: the
+    /// supervisor has --gate and --fixed).
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// Runs the subcommand.
@@ -60,7 +68,9 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
             anyhow::bail!("unknown fault '{name}'; expected one of {}", names.join(", "));
         }
     }
-    settings.validate().map_err(anyhow::Error::msg)?;
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    // A name or value the tuning refuses costs no run.
+    Tuning::new(&settings, [1.0; 2]).set_all(&start_values).map_err(anyhow::Error::msg)?;
     let defaults = if args.fixed { SupervisorSettings::default().fixed() } else { SupervisorSettings::default() };
     let supervision = SupervisorSettings { gate_probability: args.gate, ..defaults };
     supervision.validate()?;
@@ -71,7 +81,7 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         .collect();
     let results = shard::run(&jobs, args.shard, |&(fault, kind)| {
         let injected = inject(fault, &args.case, &settings);
-        run(kind, &injected, &args.case, &settings, supervision)
+        run_with(kind, &injected, &args.case, &settings, supervision, &start_values)
     });
     let mut out = String::new();
     let _ = writeln!(
@@ -88,6 +98,9 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
             "defaults of estimator::SupervisorSettings (jumps taken, Q adapted)"
         }
     );
+    if !start_values.is_empty() {
+        let _ = writeln!(out, "start values over the study's tuning in every run: {}", start_values.summary());
+    }
     let _ = writeln!(
         out,
         "{:<11} {:<8} {:>13} {:>12} {:>7} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7}",

@@ -28,6 +28,8 @@ use analyzer::metrics::correlation;
 use estimator::models::Oscillator2DofLoad;
 use estimator::{FilterKind, RowOutcome, Sample, SupervisedFilter, Supervisor, SupervisorSettings};
 
+use start_values::StartValues;
+
 use super::Tuning;
 use truth::s1::load::Step;
 use truth::s1::plant::Truth;
@@ -204,13 +206,26 @@ pub struct FaultRun {
     pub failure: Option<String>,
 }
 
-/// Runs `kind` behind the supervisor over an injected case.
+/// Runs `kind` behind the supervisor over an injected case, with the study's tuning.
 pub fn run(
     kind: FilterKind,
     injected: &Injected,
     case: &Case,
     settings: &Settings,
     supervision: SupervisorSettings,
+) -> FaultRun {
+    run_with(kind, injected, case, settings, supervision, &StartValues::none())
+}
+
+/// [`run`] with `start_values` over the study's tuning (every name one [`Tuning::set`]
+/// takes; a refused one is the run's setup failure).
+pub fn run_with(
+    kind: FilterKind,
+    injected: &Injected,
+    case: &Case,
+    settings: &Settings,
+    supervision: SupervisorSettings,
+    start_values: &StartValues,
 ) -> FaultRun {
     let Injected { fault, truth, measurements, corrupted } = injected;
     let mut run = FaultRun {
@@ -228,11 +243,14 @@ pub fn run(
         reacquisitions: 0,
         failure: None,
     };
-    let tuning = Tuning::new(settings, measurements.noise_std);
-    let built = tuning.filter(kind, case, tuning.noise()).and_then(|filter| {
+    let mut tuning = Tuning::new(settings, measurements.noise_std);
+    let built = tuning.set_all(start_values).and_then(|()| {
+        let filter = tuning.filter(kind, case, tuning.noise()).map_err(|e| e.to_string())?;
         let n = filter.state_dim();
-        let supervisor = Supervisor::new(supervision, 2)?.with_jump_states(n, &Oscillator2DofLoad::UNKNOWN_INPUTS)?;
-        SupervisedFilter::new(filter, supervisor)
+        let supervisor = Supervisor::new(supervision, 2)
+            .and_then(|s| s.with_jump_states(n, &Oscillator2DofLoad::UNKNOWN_INPUTS))
+            .map_err(|e| e.to_string())?;
+        SupervisedFilter::new(filter, supervisor).map_err(|e| e.to_string())
     });
     let mut supervised = match built {
         Ok(supervised) => supervised,

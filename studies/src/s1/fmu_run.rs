@@ -37,36 +37,12 @@ const OUTPUTS: [&str; 13] = [
     "nis",
 ];
 
-/// The FMU parameters of a case: the paper's chain and the study's one tuning.
-fn parameters(case: &Case, settings: &Settings, measurements: &Measurements) -> Vec<(&'static str, f64)> {
-    let chain = case.chain();
-    let (k, c) = (chain.k1, chain.c1);
-    let (ks, kb) = (k.slopes(), k.breaks());
-    let (cs, cb) = (c.slopes(), c.breaks());
-    // A linear element is a law of three equal slopes; its breakpoints are then irrelevant.
-    let breaks = |b: [f64; 2], default: [f64; 2]| if b[0].is_finite() { b } else { default };
-    let (kb, cb) = (breaks(kb, [0.1, 0.2]), breaks(cb, [0.05, 0.1]));
-    let mut p = vec![
-        ("m1", chain.m1),
-        ("m2", chain.m2),
-        ("k11", ks[0]),
-        ("k12", ks[1]),
-        ("k13", ks[2]),
-        ("delta1", kb[0]),
-        ("delta2", kb[1]),
-        ("c11", cs[0]),
-        ("c12", cs[1]),
-        ("c13", cs[2]),
-        ("eps1", cb[0]),
-        ("eps2", cb[1]),
-        ("k2", chain.k2),
-        ("c2", chain.c2),
-        ("sample_time", settings.dt()),
-        ("ukf_alpha", 1.0),
-        ("ukf_beta", 2.0),
-        ("ukf_kappa", 0.0),
-    ];
-    p.extend(Tuning::new(settings, measurements.noise_std).fmu_parameters());
+/// The FMU's Real parameters of a case: the paper's chain, the sample time and the
+/// study's one tuning.
+fn parameters(tuning: &Tuning, case: &Case, settings: &Settings) -> Vec<(&'static str, f64)> {
+    let mut p = truth::s1::chain_parameters(&case.chain()).to_vec();
+    p.push(("sample_time", settings.dt()));
+    p.extend(tuning.fmu_parameters());
     p
 }
 
@@ -94,7 +70,9 @@ pub fn run(
     progress: &dyn Fn(),
 ) -> anyhow::Result<()> {
     let Simulated { case, settings, truth, measurements, start_values } = *sim;
-    let params = parameters(case, settings, measurements);
+    let tuning = Tuning::new(settings, measurements.noise_std);
+    let params = parameters(&tuning, case, settings);
+    let integers = tuning.fmu_integers();
     let truth_names = ["F", "z1", "z2", "z1_dot", "z2_dot", "F_dot"];
     let truth_specs: Vec<SignalSpec> =
         truth_names.iter().map(|n| SignalSpec::new(n, &fmu.unit(n), "true value (truth simulator)")).collect();
@@ -108,7 +86,7 @@ pub fn run(
         fmu,
         filter: kind,
         parameters: &params,
-        integers: &[("rk4_substeps", 1)],
+        integers: &integers,
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,

@@ -1,15 +1,19 @@
 //! S1 in `kalfmu reproduce`: every case through the packaged FMU with every filter,
 //! one log per run and one comparison per case, and the table beside the paper's figures,
-//! printed and written as `table.json` ([`Table`]). Beside each filter's accuracy, whether
+//! printed and written as `table.json` ([`Table`]); then the unseen cases, loads the
+//! set-up was not made for, with the SRCKF at 1 %, the run's and 5 % noise (`--quick`: one
+//! of them), their paper columns blank. Beside each filter's accuracy, whether
 //! its σ of the load is honest: the analyzer's 1σ and 2σ coverage and mean (e/σ)² of `F`,
 //! and its NIS against the measurement rows used (docs/analyzer.md, "Is the σ honest?").
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use start_values::StartValues;
 
 use analyzer::consistency::{Nis, NormalisedError, Reading};
+use analyzer::metrics::Metrics;
 use analyzer::report::{analyse, Options, PairReport, Report};
 use anyhow::Context;
 use estimator::FilterKind;
@@ -21,6 +25,8 @@ use serde::Serialize;
 
 use crate::comparison::{compare_case, log_path, units, write_table};
 use cosim::fmu_driver::ImportedFmu;
+use shard::Shard;
+use truth::s1::plant::Truth;
 use truth::s1::{Case, Settings};
 
 /// The figures of S1's table, as `table.json` has them.
@@ -31,7 +37,7 @@ pub struct Table {
     /// The set-up the figures are of.
     pub settings: TableSettings,
     /// The unit of each dimensional field (see [`units`]).
-    pub units: std::collections::BTreeMap<&'static str, &'static str>,
+    pub units: BTreeMap<&'static str, &'static str>,
     /// Where the `paper` figures come from.
     pub paper_source: &'static str,
     /// One entry per case, in the table's order.
@@ -51,18 +57,31 @@ pub struct TableSettings {
     pub seed: u64,
     /// The running RMSE's trailing window (s).
     pub rmse_window: f64,
+    /// Whether this is `--quick`'s short run (one unseen case instead of all).
+    pub quick: bool,
+    /// The start values given (`--set`, `--values`), set on every FMU run over the study's
+    /// parameters; empty without any.
+    pub start_values: BTreeMap<String, f64>,
 }
 
-/// One case of a [`Table`]: the paper's SRCKF figures and every filter's.
+/// One case of a [`Table`]: the paper's SRCKF figures and every filter's, or for an
+/// unseen case the SRCKF's alone.
 #[derive(Debug, Serialize)]
 pub struct CaseFigures {
-    /// The case, as printed (`stiffness/random`, …).
+    /// The case, as printed (`stiffness/random`, `damping/chirp`, …).
     pub case: String,
-    /// The paper's SRCKF figures; `null` where it gives none.
-    pub paper: PaperFigures,
+    /// Whether the paper published figures for the case: `false` for the unseen cases
+    /// (`truth::s1::Case::UNSEEN`), loads the set-up was not made for.
+    pub published: bool,
+    /// The accelerometer noise of the case's runs, a fraction of each channel's RMS (the
+    /// settings' for the paper's cases; 1 %, the settings' or 5 % for the unseen ones).
+    pub noise_fraction: f64,
+    /// The paper's SRCKF figures; `null` for an unseen case, and each figure `null` where
+    /// the paper gives none.
+    pub paper: Option<PaperFigures>,
     /// Why the case's runs could not be compared, if they could not (then `filters` is empty).
     pub failure: Option<String>,
-    /// One entry per filter kind, in the table's order.
+    /// One entry per filter kind, in the table's order (an unseen case: the SRCKF only).
     pub filters: Vec<FilterFigures>,
 }
 
@@ -139,45 +158,124 @@ const UNITS: [(&str, &str); 8] = [
     ("psd_agreement_band", "Hz"),
 ];
 
-/// Runs S1 through its FMU, prints the table and writes it as `table.json` in `out/s1`;
-/// returns the number of failed runs.
-pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
-    let fmu = ImportedFmu::load_packaged(fmu_dir, "kalfmu_s1_load")?;
-    fmu.check_start_values(start_values)?;
-    let dir = out.join("s1");
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    println!(
-        "S1: dynamic load on a 2-DOF nonlinear chain — {} s at {} Hz, truth RK4 at {:.0e} s, accelerometer noise {:.1} % of RMS, seed {}",
-        settings.duration,
-        settings.rate,
-        settings.dt() / settings.truth_substeps() as f64,
-        100.0 * settings.noise_fraction,
-        settings.seed
-    );
-    println!(
-        "estimates from {} driven through the fmi importer; per run a log (<case>_<filter>.mcap), per case a comparison \
-         of every filter (<case>.json, and the Rerun recording <case>.rrd) in {}",
-        fmu_dir.join("kalfmu_s1_load.fmu").display(),
-        dir.display()
-    );
-    println!(
-        "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
-        settings.rmse_window
-    );
-    println!(
-        "two readings of the FMU's outputs, as a master has them: at t after the inputs of t were set (feedthrough, \
-         the first columns) and right after fmi2DoStep(t, dt), the estimate at t + dt predicted from the measurements \
-         up to t ('after step'); each compared with the truth at its own time stamp"
-    );
-    let runs = (Case::ALL.len() * FilterKind::ALL.len()) as u64;
-    let ticks_per_run = (settings.samples() / 1000) as u64;
-    let bar = ProgressBar::new(runs * ticks_per_run.max(1));
-    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]").expect("a valid template"));
-    let mut table = String::new();
-    let _ = writeln!(
-        table,
-        "{:<19} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}  {:>6} {:>6} {:>17} {:>17}",
-        "case",
+/// The noise levels, besides the run's own, at which the unseen cases run in the full
+/// table: the ends of the 1–5 % the study covers.
+const UNSEEN_NOISE: [f64; 2] = [0.01, 0.05];
+
+/// The filter of the unseen cases: the paper's, and the FMU's default. Every kind on each
+/// of them at three noise levels would be 90 runs more, over four times the table's time.
+const UNSEEN_FILTER: FilterKind = FilterKind::SrCkf;
+
+/// The unseen cases the table adds, each with its noise fraction: with `quick`, one short
+/// one at the run's noise (the band to 20 Hz, twice the bandwidth the set-up assumes; the
+/// chirp, which sweeps over the whole run, would sweep six times as fast in the short run
+/// as in the full one); otherwise each of [`Case::UNSEEN`] at 1 %, the run's noise and
+/// 5 %, in that order.
+fn unseen_runs(settings: &Settings, quick: bool) -> Vec<(Case, f64)> {
+    if quick {
+        let band = Case::unseen(truth::s1::Nonlinearity::Stiffness, truth::s1::UnseenLoad::Band20);
+        return vec![(band, settings.noise_fraction)];
+    }
+    let mut noises = UNSEEN_NOISE.to_vec();
+    noises.push(settings.noise_fraction);
+    noises.sort_by(f64::total_cmp);
+    noises.dedup();
+    Case::UNSEEN.iter().flat_map(|&case| noises.iter().map(move |&noise| (case, noise))).collect()
+}
+
+/// A noise fraction as a file name has it: `0.02` → `2p0`.
+fn noise_label(fraction: f64) -> String {
+    format!("{:.1}", 100.0 * fraction).replace('.', "p")
+}
+
+/// What every case's runs share.
+struct Given<'a> {
+    fmu: &'a ImportedFmu,
+    start_values: &'a StartValues,
+    options: &'a Options,
+    bar: &'a ProgressBar,
+    /// Each case's truth, simulated once for all its noise levels (the noise has a stream
+    /// of its own, so the truth does not depend on it).
+    truths: &'a [(Case, Truth)],
+}
+
+/// One filter's figures of the load on a case.
+#[derive(Debug, Clone)]
+struct Figures {
+    /// The feedthrough reading's metrics.
+    feedthrough: Metrics,
+    /// Its spectra's band of agreement.
+    band: Option<(f64, f64)>,
+    /// The after-step reading's metrics.
+    after_step: Metrics,
+    /// The σ figures.
+    sigma: SigmaOfLoad,
+}
+
+/// Each filter's figures of a case or why its run failed; or why the runs could not be
+/// compared.
+type CaseRuns = Result<Vec<(FilterKind, anyhow::Result<Figures>)>, String>;
+
+/// A case's runs of `kinds` through the FMU, logged and read back, compared in one
+/// comparison (`<stem>.json`, `<stem>.rrd`): each filter's figures or why its run failed,
+/// or why the runs could not be compared; and the recording, if written.
+fn run_case(
+    given: &Given<'_>,
+    case: &Case,
+    settings: &Settings,
+    kinds: &[FilterKind],
+    stem: &Path,
+) -> (CaseRuns, Option<PathBuf>) {
+    let Given { fmu, start_values, options, bar, truths } = *given;
+    let truth = &truths.iter().find(|(c, _)| c == case).expect("every case's truth is simulated").1;
+    // As `truth::s1::simulate` measures it: the noise at the settings' fraction and seed.
+    let measurements = truth::s1::measure(truth, settings.noise_fraction, settings.seed);
+    let mut runs = Vec::new();
+    let mut rows: Vec<(FilterKind, anyhow::Result<usize>)> = Vec::new();
+    for &kind in kinds {
+        bar.set_message(format!("{case} {kind}"));
+        let log = log_path(stem, kind);
+        let sim = super::fmu_run::Simulated { case, settings, truth, measurements: &measurements, start_values };
+        let result =
+            super::fmu_run::run(fmu, kind, &sim, &log, &|| bar.inc(1)).and_then(|()| Ok(read_log(&log)?)).map(|run| {
+                runs.push(run);
+                runs.len() - 1
+            });
+        rows.push((kind, result));
+    }
+    let mut recording = None;
+    let compared = compare_case(&runs, options, stem).and_then(|(comparison, written)| {
+        recording = Some(written);
+        let after_step =
+            runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
+        let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
+        let loads = comparison.runs.iter().zip(&after_step).map(|(report, after)| {
+            let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
+                return Err(format!("the report of {} has no load pair", report.file));
+            };
+            let sigma = SigmaOfLoad {
+                one_sigma_coverage: pair.one_sigma_coverage,
+                two_sigma_coverage: pair.two_sigma_coverage,
+                normalised_error: pair.normalised_error,
+                nis: report.nis.clone(),
+            };
+            Ok(Figures { feedthrough: pair.metrics, band: pair.psd_agreement_band, after_step: after.metrics, sigma })
+        });
+        Ok(loads.collect::<Vec<_>>())
+    });
+    let figures = compared.map_err(|e| e.to_string()).map(|loads| {
+        rows.into_iter()
+            .map(|(kind, result)| (kind, result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg))))
+            .collect()
+    });
+    (figures, recording)
+}
+
+/// The table's header line, its first column titled `first`.
+fn header(first: &str) -> String {
+    format!(
+        "{:<22} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}  {:>6} {:>6} {:>17} {:>17}",
+        first,
         "filter",
         "corr",
         "paper",
@@ -194,137 +292,232 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
         "2σ F",
         "(e/σ)² F",
         "NIS/rows"
-    );
-    let mut failures = 0;
-    let mut recordings = Vec::new();
-    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
-    let paper = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-    let mut cases = Vec::new();
-    for case in Case::ALL {
-        let (truth, measurements) = truth::s1::simulate(&case, settings);
-        let published = super::published(&case);
-        let case_stem = dir.join(case.to_string().replace('/', "_"));
-        // Each filter's run through the FMU, logged and read back.
-        let mut runs = Vec::new();
-        let mut rows: Vec<(FilterKind, anyhow::Result<usize>)> = Vec::new();
-        for kind in FilterKind::ALL {
-            bar.set_message(format!("{case} {kind}"));
-            let log = log_path(&case_stem, kind);
-            let sim = super::fmu_run::Simulated {
-                case: &case,
-                settings,
-                truth: &truth,
-                measurements: &measurements,
-                start_values,
-            };
-            let result = super::fmu_run::run(&fmu, kind, &sim, &log, &|| bar.inc(1))
-                .and_then(|()| Ok(read_log(&log)?))
-                .map(|run| {
-                    runs.push(run);
-                    runs.len() - 1
-                });
-            rows.push((kind, result));
+    )
+}
+
+/// One filter's line of the table; the paper's columns blank without `paper`.
+fn line(label: &str, kind: FilterKind, f: &Figures, paper: Option<&super::Published>) -> String {
+    let (c, a, sigma) = (&f.feedthrough, &f.after_step, &f.sigma);
+    let figure = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
+    let (paper_corr, paper_peak, paper_max) = match paper {
+        Some(p) => (format!("{:.3}", p.correlation), figure(p.running_rmse_peak), figure(p.running_rmse_max_converged)),
+        None => (String::new(), String::new(), String::new()),
+    };
+    format!(
+        "{:<22} {:<8} {:>8.5} {:>6} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}  {:>6} \
+         {:>6} {:>17} {:>17}",
+        label,
+        kind.name(),
+        c.correlation,
+        paper_corr,
+        c.rmse_converged,
+        c.running_rmse_peak,
+        paper_peak,
+        c.running_rmse_max_converged,
+        paper_max,
+        c.convergence_time,
+        f.band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}")),
+        a.correlation,
+        a.rmse_converged,
+        coverage(sigma.one_sigma_coverage),
+        coverage(sigma.two_sigma_coverage),
+        read(sigma.normalised_error.map(|n| (n.mean_square, n.reading))),
+        read(sigma.nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
+    )
+}
+
+impl FilterFigures {
+    /// A run's entry from its figures.
+    fn of(kind: FilterKind, f: Figures) -> Self {
+        let (c, a) = (f.feedthrough, f.after_step);
+        Self {
+            filter: kind.name(),
+            failure: None,
+            feedthrough: Some(FeedthroughFigures {
+                correlation: c.correlation,
+                rmse_converged: c.rmse_converged,
+                running_rmse_peak: c.running_rmse_peak,
+                running_rmse_max_converged: c.running_rmse_max_converged,
+                convergence_time: c.convergence_time,
+                psd_agreement_band: f.band,
+                one_sigma_coverage: f.sigma.one_sigma_coverage,
+                two_sigma_coverage: f.sigma.two_sigma_coverage,
+                normalised_error: f.sigma.normalised_error,
+            }),
+            after_step: Some(AfterStepFigures { correlation: a.correlation, rmse_converged: a.rmse_converged }),
+            nis: f.sigma.nis,
         }
-        // All of the case's runs in one comparison: JSON and one recording.
-        let compared = compare_case(&runs, &options, &case_stem).and_then(|(comparison, recording)| {
-            recordings.push(recording);
-            let after_step =
-                runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
-            let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
-            let loads = comparison.runs.iter().zip(&after_step).map(|(report, after)| {
-                let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
-                    return Err(format!("the report of {} has no load pair", report.file));
-                };
-                let sigma = SigmaOfLoad {
-                    one_sigma_coverage: pair.one_sigma_coverage,
-                    two_sigma_coverage: pair.two_sigma_coverage,
-                    normalised_error: pair.normalised_error,
-                    nis: report.nis.clone(),
-                };
-                Ok((pair.metrics, pair.psd_agreement_band, after.metrics, sigma))
-            });
-            Ok(loads.collect::<Vec<_>>())
-        });
-        let mut figures = CaseFigures {
+    }
+
+    /// A failed run's entry.
+    fn failed(kind: FilterKind, why: String) -> Self {
+        Self { filter: kind.name(), failure: Some(why), feedthrough: None, after_step: None, nis: None }
+    }
+}
+
+/// One case's part of the table.
+struct Tabulated {
+    /// Its lines.
+    lines: String,
+    /// Its entry of `table.json`.
+    figures: CaseFigures,
+    /// Its failed runs (or 1 if they could not be compared).
+    failures: usize,
+    /// Its comparison's recording, if written.
+    recording: Option<PathBuf>,
+}
+
+/// Runs `case` at `settings` and tabulates it: a paper's case with every filter kind in
+/// `dir`, beside the paper's figures; an unseen one with [`UNSEEN_FILTER`], labelled with
+/// its noise, in files named with it.
+fn tabulate(given: &Given<'_>, case: &Case, settings: &Settings, dir: &Path) -> Tabulated {
+    let paper = super::published(case);
+    let noise = settings.noise_fraction;
+    let name = case.to_string().replace('/', "_");
+    let (label, stem, kinds) = match paper {
+        Some(_) => (case.to_string(), dir.join(name), &FilterKind::ALL[..]),
+        None => {
+            let percent = (1000.0 * noise).round() / 10.0;
+            (
+                format!("{case} {percent}%"),
+                dir.join(format!("{name}_noise{}", noise_label(noise))),
+                &[UNSEEN_FILTER][..],
+            )
+        }
+    };
+    let (runs, recording) = run_case(given, case, settings, kinds, &stem);
+    let mut tabulated = Tabulated {
+        lines: String::new(),
+        figures: CaseFigures {
             case: case.to_string(),
-            paper: PaperFigures {
-                correlation: published.correlation,
-                running_rmse_peak: published.running_rmse_peak,
-                running_rmse_max_converged: published.running_rmse_max_converged,
-            },
+            published: paper.is_some(),
+            noise_fraction: noise,
+            paper: paper.map(|p| PaperFigures {
+                correlation: p.correlation,
+                running_rmse_peak: p.running_rmse_peak,
+                running_rmse_max_converged: p.running_rmse_max_converged,
+            }),
             failure: None,
             filters: Vec::new(),
-        };
-        let loads = match compared {
-            Ok(loads) => loads,
-            Err(e) => {
-                failures += 1;
-                let _ = writeln!(table, "{:<19} FAILED to compare the filters: {e}", case.to_string());
-                figures.failure = Some(e.to_string());
-                cases.push(figures);
-                continue;
-            }
-        };
-        for (kind, result) in rows {
-            match result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg)) {
-                Ok((c, band, a, sigma)) => {
-                    let _ = writeln!(
-                        table,
-                        "{:<19} {:<8} {:>8.5} {:>6.3} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} \
-                         {:>10.4}  {:>6} {:>6} {:>17} {:>17}",
-                        case.to_string(),
-                        kind.name(),
-                        c.correlation,
-                        published.correlation,
-                        c.rmse_converged,
-                        c.running_rmse_peak,
-                        paper(published.running_rmse_peak),
-                        c.running_rmse_max_converged,
-                        paper(published.running_rmse_max_converged),
-                        c.convergence_time,
-                        band.map_or("—".into(), |(lo, hi)| format!("{lo:.2}–{hi:.1}")),
-                        a.correlation,
-                        a.rmse_converged,
-                        coverage(sigma.one_sigma_coverage),
-                        coverage(sigma.two_sigma_coverage),
-                        read(sigma.normalised_error.map(|n| (n.mean_square, n.reading))),
-                        read(sigma.nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
-                    );
-                    figures.filters.push(FilterFigures {
-                        filter: kind.name(),
-                        failure: None,
-                        feedthrough: Some(FeedthroughFigures {
-                            correlation: c.correlation,
-                            rmse_converged: c.rmse_converged,
-                            running_rmse_peak: c.running_rmse_peak,
-                            running_rmse_max_converged: c.running_rmse_max_converged,
-                            convergence_time: c.convergence_time,
-                            psd_agreement_band: band,
-                            one_sigma_coverage: sigma.one_sigma_coverage,
-                            two_sigma_coverage: sigma.two_sigma_coverage,
-                            normalised_error: sigma.normalised_error,
-                        }),
-                        after_step: Some(AfterStepFigures {
-                            correlation: a.correlation,
-                            rmse_converged: a.rmse_converged,
-                        }),
-                        nis: sigma.nis,
-                    });
-                }
-                Err(e) => {
-                    failures += 1;
-                    let _ = writeln!(table, "{:<19} {:<8} FAILED: {e:#}", case.to_string(), kind.name());
-                    figures.filters.push(FilterFigures {
-                        filter: kind.name(),
-                        failure: Some(format!("{e:#}")),
-                        feedthrough: None,
-                        after_step: None,
-                        nis: None,
-                    });
+        },
+        failures: 0,
+        recording,
+    };
+    let (lines, figures) = (&mut tabulated.lines, &mut tabulated.figures);
+    match runs {
+        Err(e) => {
+            tabulated.failures += 1;
+            let _ = writeln!(lines, "{label:<22} FAILED to compare the filters: {e}");
+            figures.failure = Some(e);
+        }
+        Ok(rows) => {
+            for (kind, result) in rows {
+                match result {
+                    Ok(f) => {
+                        let _ = writeln!(lines, "{}", line(&label, kind, &f, paper.as_ref()));
+                        figures.filters.push(FilterFigures::of(kind, f));
+                    }
+                    Err(e) => {
+                        tabulated.failures += 1;
+                        let _ = writeln!(lines, "{label:<22} {:<8} FAILED: {e:#}", kind.name());
+                        figures.filters.push(FilterFigures::failed(kind, format!("{e:#}")));
+                    }
                 }
             }
         }
-        cases.push(figures);
+    }
+    tabulated
+}
+
+/// Runs S1 through its FMU, prints the table and writes it as `table.json` in `out/s1`;
+/// returns the number of failed runs. The paper's four cases run with every filter kind at
+/// the settings' noise; the unseen cases ([`unseen_runs`]: all of them at 1 %, the run's
+/// noise and 5 %, or with `quick` one) with the SRCKF, their logs and comparisons in
+/// `out/s1/unseen`.
+pub fn report(
+    settings: &Settings,
+    start_values: &StartValues,
+    quick: bool,
+    fmu_dir: &Path,
+    out: &Path,
+) -> anyhow::Result<usize> {
+    let fmu = ImportedFmu::load_packaged(fmu_dir, "kalfmu_s1_load")?;
+    // A misspelt name or a value of the wrong type costs no run.
+    fmu.check_start_values(start_values)?;
+    let dir = out.join("s1");
+    let unseen_dir = dir.join("unseen");
+    std::fs::create_dir_all(&unseen_dir).with_context(|| format!("cannot create {}", unseen_dir.display()))?;
+    println!(
+        "S1: dynamic load on a 2-DOF nonlinear chain — {} s at {} Hz, truth RK4 at {:.0e} s, accelerometer noise {:.1} % of RMS, seed {}",
+        settings.duration,
+        settings.rate,
+        settings.dt() / settings.truth_substeps() as f64,
+        100.0 * settings.noise_fraction,
+        settings.seed
+    );
+    if !start_values.is_empty() {
+        println!("start values, over the study's in every FMU run: {}", start_values.summary());
+    }
+    println!(
+        "estimates from {} driven through the fmi importer; per run a log (<case>_<filter>.mcap), per case a comparison \
+         of every filter (<case>.json, and the Rerun recording <case>.rrd) in {}",
+        fmu_dir.join("kalfmu_s1_load.fmu").display(),
+        dir.display()
+    );
+    println!(
+        "running RMSE over a trailing {} s window; 'conv' = after the convergence time (analyzer/src/metrics.rs)",
+        settings.rmse_window
+    );
+    println!(
+        "two readings of the FMU's outputs, as a master has them: at t after the inputs of t were set (feedthrough, \
+         the first columns) and right after fmi2DoStep(t, dt), the estimate at t + dt predicted from the measurements \
+         up to t ('after step'); each compared with the truth at its own time stamp"
+    );
+    let unseen = unseen_runs(settings, quick);
+    let runs = (Case::ALL.len() * FilterKind::ALL.len() + unseen.len()) as u64;
+    let ticks_per_run = (settings.samples() / 1000) as u64;
+    let bar = ProgressBar::new(runs * ticks_per_run.max(1));
+    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} [{elapsed}]").expect("a valid template"));
+    let options = Options { rmse_window: settings.rmse_window, ..Options::default() };
+    // The truths first, on every core: they take most of the time (a 60 s run is 1.2
+    // million RK4 steps under a load of hundreds of harmonics), and the FMU runs, one
+    // instance at a time, cannot share them out.
+    let mut simulated: Vec<Case> = Case::ALL.to_vec();
+    for (case, _) in &unseen {
+        if !simulated.contains(case) {
+            simulated.push(*case);
+        }
+    }
+    bar.set_message("simulating the truths");
+    let truths: Vec<(Case, Truth)> = shard::run(&simulated, Shard::ALL, |case| truth::s1::simulate(case, settings).0)
+        .into_iter()
+        .map(|(j, truth)| (simulated[j], truth))
+        .collect();
+    let given = Given { fmu: &fmu, start_values, options: &options, bar: &bar, truths: &truths };
+    let mut table = header("case") + "\n";
+    let mut failures = 0;
+    let mut recordings = Vec::new();
+    let mut cases = Vec::new();
+    for case in Case::ALL {
+        let tabulated = tabulate(&given, &case, settings, &dir);
+        failures += tabulated.failures;
+        table += &tabulated.lines;
+        recordings.extend(tabulated.recording);
+        cases.push(tabulated.figures);
+    }
+    let _ = writeln!(
+        table,
+        "unseen cases, loads the set-up was not made for (truth::s1::Case::UNSEEN: band-limited to 20 Hz, a train of \
+         steps, a chirp 0.1–15 Hz): no paper figures, {} only, at the noise shown (% of RMS){}",
+        UNSEEN_FILTER.name(),
+        if quick { "; --quick runs one" } else { "" }
+    );
+    table += &(header("unseen case, noise") + "\n");
+    for &(case, noise) in &unseen {
+        let tabulated = tabulate(&given, &case, &Settings { noise_fraction: noise, ..*settings }, &unseen_dir);
+        failures += tabulated.failures;
+        table += &tabulated.lines;
+        cases.push(tabulated.figures);
     }
     bar.finish_and_clear();
     write_table(
@@ -337,6 +530,8 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
                 noise_fraction: settings.noise_fraction,
                 seed: settings.seed,
                 rmse_window: settings.rmse_window,
+                quick,
+                start_values: start_values.iter().map(|(n, v)| (n.to_string(), v)).collect(),
             },
             units: units(&UNITS),
             paper_source: PAPER_SOURCE,
@@ -349,6 +544,11 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
     for recording in &recordings {
         println!("  {}", recording.display());
     }
+    println!(
+        "  and one per unseen case and noise in {} (<case>_noise<percent>.rrd, {} in all)",
+        unseen_dir.display(),
+        unseen.len()
+    );
     Ok(failures)
 }
 

@@ -1,11 +1,13 @@
 //! `kalfmu s1-sweep`: the S1 SRCKF over many seeds and noise levels, to
 //! show that the published-case figures are not a lucky draw. The runs go to
 //! all cores; `--shard K/N` runs a share of them (its table then covers the
-//! seeds of that share only).
+//! seeds of that share only). `--set` and `--values` change the study's tuning
+//! (`s1::Tuning::set`: its FMU parameter names) in every run.
 
 use std::fmt::Write as _;
 
 use estimator::FilterKind;
+use start_values::StartValues;
 
 use crate::s1::{self};
 use crate::shard::{self, Shard};
@@ -29,17 +31,27 @@ pub struct Args {
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
+    /// Start values over the study's tuning, by the FMU's parameter names (those of
+    /// `s1::Tuning`; the chain and the supervisor are not the in-process filter's).
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// Runs the sweep and prints, per case and noise level, the correlation over
 /// the seeds (min, mean) and how many seeds reach the project's goal.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    // A name or value the tuning refuses costs no run.
+    s1::Tuning::new(&Settings::default(), [1.0; 2]).set_all(&start_values).map_err(anyhow::Error::msg)?;
     let mut out = String::new();
     let _ = writeln!(
         out,
         "S1 {} over seeds 1..={} ({} s each): correlation of identified vs true load",
         args.filter, args.seeds, args.duration
     );
+    if !start_values.is_empty() {
+        let _ = writeln!(out, "start values over the study's tuning in every run: {}", start_values.summary());
+    }
     let _ =
         writeln!(out, "{:<19} {:>7} {:>9} {:>9} {:>6} {:>12}", "case", "noise", "min", "mean", "goal", "seeds ≥ goal");
     let mut jobs = Vec::new();
@@ -54,7 +66,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let runs = shard::run(&jobs, args.shard, |(case, settings)| {
         let (truth, measurements) = truth::s1::simulate(case, settings);
-        s1::run_filter(args.filter, case, settings, &truth, &measurements)
+        s1::run_filter(args.filter, case, settings, &truth, &measurements, &start_values)
     });
     let mut failures = 0;
     for case in Case::ALL {

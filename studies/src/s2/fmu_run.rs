@@ -13,7 +13,7 @@ use start_values::StartValues;
 use super::study::Tuning;
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::{self, Counts, Setup};
-use truth::s2::cases::{Case, Measurements, Settings, Truth};
+use truth::s2::cases::{Measurements, Scenario, Settings, Truth};
 use truth::s2::parameters::Vehicle;
 
 /// The FMU's identifier.
@@ -34,45 +34,19 @@ const INPUTS: [(&str, &str); 7] = [
 const OUTPUTS: [&str; 9] = ["F_N1", "F_N2", "F_N3", "F_N4", "F_N1_std", "F_N2_std", "F_N3_std", "F_N4_std", "nis"];
 
 /// What the user sets in the FMU: their catalogue vehicle, the static wheel load as weighed,
-/// the sample time and the study's tuning.
+/// the sample time and the study's tuning (its Real parameters; [`Tuning::fmu_integers`]
+/// has the others).
 pub fn parameters(catalogue: &Vehicle, weighed: f64, tuning: &Tuning) -> Vec<(&'static str, f64)> {
-    let v = catalogue;
-    let mut p = vec![
-        ("car_body_mass", v.car_body_mass),
-        ("car_body_pitch_inertia", v.car_body_pitch_inertia),
-        ("bogie_mass", v.bogie_mass),
-        ("bogie_pitch_inertia", v.bogie_pitch_inertia),
-        ("wheelset_mass", v.wheelset_mass),
-        ("primary_stiffness", v.primary_stiffness),
-        ("primary_damping", v.primary_damping),
-        ("primary_damping_beyond", v.primary_damping_beyond),
-        ("primary_damper_knee", v.primary_damper_knee),
-        ("secondary_stiffness", v.secondary_stiffness),
-        ("secondary_damping", v.secondary_damping),
-        ("half_bogie_spacing", v.half_bogie_spacing),
-        ("half_wheelbase", v.half_wheelbase),
-        ("static_wheel_load", weighed),
-        ("sample_time", tuning.dt),
-        ("p0_motion_std", tuning.prior_std),
-        ("p0_force_std", tuning.prior_std),
-        ("q_body_std", tuning.body_std),
-        ("q_wheelset_std", tuning.wheelset_std),
-        ("force_noise_intensity", tuning.force_intensity),
-        // The library's cubature rule, as in the study's in-process runs.
-        ("ukf_alpha", 1.0),
-        ("ukf_beta", 2.0),
-        ("ukf_kappa", 0.0),
-    ];
-    let sensors = ["r_z_c_ddot_std", "r_z_t1_ddot_std", "r_z_t2_ddot_std", "r_z_w1_ddot_std"];
-    let sensors = sensors.into_iter().chain(["r_z_w2_ddot_std", "r_z_w3_ddot_std", "r_z_w4_ddot_std"]);
-    p.extend(sensors.zip(tuning.sensor_std));
+    let mut p = catalogue.fmu_parameters().to_vec();
+    p.extend([("static_wheel_load", weighed), ("sample_time", tuning.dt)]);
+    p.extend(tuning.fmu_parameters());
     p
 }
 
 /// One simulated case and how the user set up the FMU for it.
 pub struct Simulated<'a> {
-    /// The case.
-    pub case: Case,
+    /// The case on its track (`random`, `random/german-low`, …).
+    pub scenario: Scenario,
     /// The study settings.
     pub settings: &'a Settings,
     /// The truth at the sample times.
@@ -81,13 +55,15 @@ pub struct Simulated<'a> {
     pub measurements: &'a Measurements,
     /// The FMU's parameters ([`parameters`]).
     pub parameters: &'a [(&'static str, f64)],
+    /// Its Integer parameters ([`Tuning::fmu_integers`]).
+    pub integers: &'a [(&'static str, i32)],
     /// The user's start values over them.
     pub start_values: &'a StartValues,
 }
 
 /// Runs `kind` on a simulated case through the FMU and writes the log to `log`.
 pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path) -> anyhow::Result<Counts> {
-    let Simulated { case, settings, truth, measurements, parameters, start_values } = *sim;
+    let Simulated { scenario, settings, truth, measurements, parameters, integers, start_values } = *sim;
     let forces: Vec<SignalSpec> = OUTPUTS[..4]
         .iter()
         .map(|n| {
@@ -100,7 +76,7 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         .collect();
     let metadata = BTreeMap::from([
         ("study".to_string(), "S2".to_string()),
-        ("case".to_string(), case.name().to_string()),
+        ("case".to_string(), scenario.to_string()),
         ("seed".to_string(), settings.seed.to_string()),
         ("speed_km_h".to_string(), format!("{}", settings.speed * 3.6)),
         ("rate_hz".to_string(), settings.rate.to_string()),
@@ -110,7 +86,7 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         fmu,
         filter: kind,
         parameters,
-        integers: &[("rk4_substeps", 1)],
+        integers,
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,

@@ -24,6 +24,15 @@
 //!   run in-process on the same measurements (`study::run_filter`): the FMU in a
 //!   co-simulation must give what our own runs give.
 //!
+//! Then the unseen tracks, spectra the set-up was not made for (German low and high
+//! interference, FRA class 6), each at its own speed between 40 and 160 km/h, at both
+//! rates, with the SRCKF (`--quick`: one of them); the paper has no figures for them.
+//!
+//! Start values (`--set`, `--values`) go to every FMU run; the in-process filter takes
+//! those it has a parameter for ([`Tuning::set`]). The others (the vehicle's, the
+//! supervisor's, …) reach the FMU only: the header names them, and "vs library" then
+//! measures their effect rather than the FMU's agreement with the library.
+//!
 //! The figures are written as `table.json` too ([`Table`]): every filter's, every wheel's.
 
 use std::collections::BTreeMap;
@@ -45,7 +54,9 @@ use super::study::{run_filter, user_vehicle, Tuning};
 use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::Counts;
-use truth::s2::cases::{as_built, measure, simulate, Case, Settings};
+use shard::Shard;
+use truth::s2::cases::{as_built, measure, Case, Scenario, Settings, Truth};
+use truth::s2::irregularity::TrackSpectrum;
 use truth::s2::parameters::Vehicle;
 
 /// The settling time before the figures are taken (s).
@@ -141,19 +152,37 @@ pub struct TableSettings {
     pub settle: f64,
     /// The running RMSE's trailing window (s).
     pub rmse_window: f64,
+    /// Whether this is `--quick`'s short run (one unseen track instead of six runs).
+    pub quick: bool,
+    /// The start values given (`--set`, `--values`), set on every FMU run over the study's
+    /// parameters and, those the in-process filter has, on it; empty without any.
+    pub start_values: BTreeMap<String, f64>,
+    /// Those of `start_values` the in-process filter does not take ([`Tuning::takes`]):
+    /// they reach the FMU only, and `fmu_vs_in_process_max_abs_difference` then measures
+    /// their effect.
+    pub start_values_fmu_only: Vec<String>,
 }
 
 /// One case of a [`Table`].
 #[derive(Debug, Serialize)]
 pub struct CaseFigures {
-    /// The case: `random`, `corrugation` or `weld`.
-    pub case: &'static str,
-    /// The paper's SRCKF figures, for wheelset 1.
-    pub paper: PaperFigures,
+    /// The case on its track: `random`, `corrugation`, `weld` (the paper's, FRA class 5),
+    /// or `random/<spectrum>` on an unseen track (`random/german-low`, …).
+    pub case: String,
+    /// Whether the paper published figures for the case: `false` for the unseen tracks
+    /// (`truth::s2::cases::Scenario::UNSEEN`), which the set-up was not made for.
+    pub published: bool,
+    /// Speed of the car in the case's runs (m/s): the settings' for the paper's cases, the
+    /// track's own for an unseen one.
+    pub speed: f64,
+    /// Sampling rate of the case's runs (Hz).
+    pub rate: f64,
+    /// The paper's SRCKF figures, for wheelset 1; `null` for an unseen track.
+    pub paper: Option<PaperFigures>,
     /// Why the case's runs could not be compared, if they could not (then only the
     /// failed filters are listed).
     pub failure: Option<String>,
-    /// One entry per filter kind, in the tables' order.
+    /// One entry per filter kind, in the tables' order (an unseen track: the SRCKF only).
     pub filters: Vec<FilterFigures>,
 }
 
@@ -282,13 +311,248 @@ const UNITS: [(&str, &str); 13] = [
 /// Where the paper's figures come from.
 const PAPER_SOURCE: &str = "SRCKF figures of the paper (Chen et al. 2025) for wheelset 1 at 200 Hz";
 
+/// The unseen tracks, each at its speed (km/h): spread over the 40–160 km/h the study
+/// covers, one spectrum at each end and one between.
+const UNSEEN: [(TrackSpectrum, f64); 3] =
+    [(TrackSpectrum::GERMAN_LOW, 40.0), (TrackSpectrum::GERMAN_HIGH, 160.0), (TrackSpectrum::FRA_6, 100.0)];
+
+/// The filter of the unseen tracks: the paper's. Every kind at both rates would be 24 runs
+/// more through the FMU and in-process, taking the table past twice its time without them.
+const UNSEEN_FILTER: FilterKind = FilterKind::SrCkf;
+
+/// The other of the study's two rates (Hz).
+fn other_rate(rate: f64) -> f64 {
+    if rate == 200.0 {
+        1000.0
+    } else {
+        200.0
+    }
+}
+
+/// The unseen runs: the random case on each of [`UNSEEN`] at its speed, at the settings'
+/// rate and then at the other ([`other_rate`]); with `quick` one, German high interference
+/// at 160 km/h at the settings' rate.
+fn unseen_runs(settings: &Settings, quick: bool) -> Vec<(Scenario, Settings)> {
+    let at = |(spectrum, km_h): (TrackSpectrum, f64), rate: f64| {
+        let scenario = Scenario { case: Case::Random, spectrum };
+        (scenario, Settings { speed: km_h / 3.6, rate, ..scenario.settings(settings) })
+    };
+    if quick {
+        return vec![at(UNSEEN[1], settings.rate)];
+    }
+    let rates = [settings.rate, other_rate(settings.rate)];
+    rates.iter().flat_map(|&rate| UNSEEN.iter().map(move |&u| at(u, rate))).collect()
+}
+
+/// What every run of the study shares.
+struct Given<'a> {
+    fmu: &'a ImportedFmu,
+    start_values: &'a StartValues,
+    catalogue: &'a Vehicle,
+    /// The static wheel load as weighed (N).
+    weighed: f64,
+}
+
+/// One filter's run of a case through the FMU, checked against the same filter
+/// in-process, and its figures.
+struct Ran {
+    kind: FilterKind,
+    counts: Counts,
+    /// The largest difference from the in-process filter (N).
+    difference: f64,
+    /// Each wheel's figures of the feedthrough reading …
+    wheels: Vec<WheelFigures>,
+    /// … and of the reading after the step.
+    after: Vec<WheelFigures>,
+    nis: Option<Nis>,
+}
+
+/// One case's runs: the filters that ran, those that failed with why, and why the runs
+/// could not be compared if they could not.
+struct CaseRuns {
+    ran: Vec<Ran>,
+    failed: Vec<(FilterKind, String)>,
+    comparison_failure: Option<String>,
+    recording: Option<std::path::PathBuf>,
+}
+
+/// Runs `kinds` on `scenario` at `settings`, whose truth is `truth`, through the FMU (logs `<stem>_<filter>.mcap`),
+/// each checked against the same filter in-process, and compares them (`<stem>.json`,
+/// `<stem>.rrd`).
+fn run_case(
+    given: &Given<'_>,
+    (scenario, settings, truth): (Scenario, &Settings, &Truth),
+    kinds: &[FilterKind],
+    stem: &Path,
+) -> anyhow::Result<CaseRuns> {
+    let Given { fmu, start_values, catalogue, weighed } = *given;
+    let measurements = measure(truth, settings.noise_fraction, settings.seed);
+    let tuning = Tuning::new(settings, measurements.noise_std);
+    let parameters = fmu_run::parameters(catalogue, weighed, &tuning);
+    let integers = tuning.fmu_integers();
+    // The in-process filter has the start values it has a parameter for; the others reach
+    // the FMU only (`report` says which).
+    let mut in_process = tuning.clone();
+    in_process.set_known(start_values).map_err(anyhow::Error::msg)?;
+    let sim = Simulated {
+        scenario,
+        settings,
+        truth,
+        measurements: &measurements,
+        parameters: &parameters,
+        integers: &integers,
+        start_values,
+    };
+    let vehicle = user_vehicle(catalogue, weighed);
+    let mut runs = Vec::new();
+    let mut checked_runs: Vec<(FilterKind, Counts, f64)> = Vec::new();
+    let mut failed = Vec::new();
+    for &kind in kinds {
+        let log = log_path(stem, kind);
+        let fmu_run = fmu_run::run(fmu, kind, &sim, &log).and_then(|counts| Ok((counts, read_log(&log)?)));
+        let checked = fmu_run.and_then(|(counts, run)| {
+            let library = run_filter(kind, vehicle, &in_process, &measurements).map_err(anyhow::Error::msg)?;
+            let logged = rows_of(run.channel(ESTIMATE)?, ["F_N1", "F_N2", "F_N3", "F_N4"])?;
+            let difference = largest_difference(&logged, &library.forces)?;
+            Ok((counts, run, difference))
+        });
+        match checked {
+            Ok((counts, run, difference)) => {
+                runs.push(run);
+                checked_runs.push((kind, counts, difference));
+            }
+            Err(e) => failed.push((kind, format!("{e:#}"))),
+        }
+    }
+    // The recordings' and the JSON's metrics are the table's: from the settling time on.
+    let options = Options {
+        rmse_window: RMSE_WINDOW,
+        psd_segment: settings.rate.round() as usize,
+        from: SETTLE,
+        ..Options::default()
+    };
+    let mut recording = None;
+    let figures = compare_case(&runs, &options, stem).and_then(|(comparison, written)| {
+        recording = Some(written);
+        let mut per_run = Vec::new();
+        for (report, run) in comparison.runs.iter().zip(&runs) {
+            let after = analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() })?;
+            let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
+                pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
+            };
+            per_run.push((wheels(&report.pairs), wheels(&after.pairs), report.nis.clone()));
+        }
+        Ok(per_run)
+    });
+    let (ran, comparison_failure) =
+        match figures {
+            Ok(figures) => {
+                let ran =
+                    checked_runs.into_iter().zip(figures).map(|((kind, counts, difference), (wheels, after, nis))| {
+                        Ran { kind, counts, difference, wheels, after, nis }
+                    });
+                (ran.collect(), None)
+            }
+            Err(e) => (Vec::new(), Some(e.to_string())),
+        };
+    Ok(CaseRuns { ran, failed, comparison_failure, recording })
+}
+
+/// The worst of a run's four wheels.
+fn worst_wheel(case: Case, r: &Ran) -> WorstWheel {
+    let worst =
+        |f: fn(&WheelFigures) -> f64, pick: fn(f64, f64) -> f64, start: f64| r.wheels.iter().map(f).fold(start, pick);
+    let worst_normalised_error = farthest_from_one(&r.wheels);
+    WorstWheel {
+        correlation_min: worst(|w| w.correlation, f64::min, f64::INFINITY),
+        rmse_over_dynamic_std_max: worst(|w| w.rmse / w.dynamic_std, f64::max, 0.0),
+        weld_peak_error_max_abs: weld_percent(
+            case,
+            worst(|w| w.peak_error, |a, b| if b.abs() > a.abs() { b } else { a }, 0.0),
+        ),
+        two_sigma_coverage_min: Some(worst(|w| w.two_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
+        one_sigma_coverage_min: Some(worst(|w| w.one_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
+        normalised_error_worst_wheelset: worst_normalised_error.map(|(j, _)| j + 1),
+        normalised_error_worst: worst_normalised_error.map(|(_, n)| n),
+        after_step_correlation_min: r.after.iter().map(|a| a.correlation).fold(f64::INFINITY, f64::min),
+    }
+}
+
+/// The worst-wheel columns every filter's table and the unseen table share, from
+/// `corr min` on (without the weld's peak error).
+fn worst_columns(worst: &WorstWheel, r: &Ran) -> [String; 8] {
+    [
+        format!("{:>9.4}", worst.correlation_min),
+        format!("{:>11.3}", worst.rmse_over_dynamic_std_max),
+        format!("{:>10.3}", worst.two_sigma_coverage_min.unwrap_or(f64::NAN)),
+        format!("{:>9}", r.counts.rejected),
+        format!("{:>10.4}", worst.after_step_correlation_min),
+        format!("{:>12.1e}", r.difference),
+        format!("{:>7}", worst.one_sigma_coverage_min.map_or("—".into(), |c| format!("{c:.3}"))),
+        format!(
+            "{:>20} {:>17}",
+            worst
+                .normalised_error_worst_wheelset
+                .zip(worst.normalised_error_worst)
+                .map_or("—".into(), |(j, n)| format!("{j}: {}", read(Some((n.mean_square, n.reading))))),
+            read(r.nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
+        ),
+    ]
+}
+
+/// A run's entry of `table.json`.
+fn filter_figures(case: Case, r: &Ran, worst: WorstWheel) -> FilterFigures {
+    FilterFigures {
+        filter: r.kind.name(),
+        failure: None,
+        rejected_rows: Some(r.counts.rejected),
+        fmu_vs_in_process_max_abs_difference: Some(r.difference),
+        worst_wheel: Some(worst),
+        wheels: r
+            .wheels
+            .iter()
+            .zip(&r.after)
+            .enumerate()
+            .map(|(j, (w, a))| WheelTable::new(case, j + 1, w, a))
+            .collect(),
+        nis: r.nis.clone(),
+    }
+}
+
+/// A failed run's entry of `table.json`.
+fn failed_figures(kind: FilterKind, why: String) -> FilterFigures {
+    FilterFigures {
+        filter: kind.name(),
+        failure: Some(why),
+        rejected_rows: None,
+        fmu_vs_in_process_max_abs_difference: None,
+        worst_wheel: None,
+        wheels: Vec::new(),
+        nis: None,
+    }
+}
+
 /// Runs S2 through its FMU, prints the tables and writes them as `table.json` in
-/// `out/s2`; returns the number of failed runs.
-pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
+/// `out/s2`; returns the number of failed runs. The paper's three cases run with every
+/// filter kind at the settings' speed and rate; then the unseen tracks ([`unseen_runs`]:
+/// three spectra at their speeds, at both rates, or with `quick` one) with the SRCKF, their
+/// logs and comparisons in `out/s2/unseen`.
+pub fn report(
+    settings: &Settings,
+    start_values: &StartValues,
+    quick: bool,
+    fmu_dir: &Path,
+    out: &Path,
+) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    // A misspelt name or a value of the wrong type costs no run.
     fmu.check_start_values(start_values)?;
+    // … nor one the in-process filter would refuse; the names it has no parameter for
+    // reach the FMU only.
+    let fmu_only = Tuning::new(settings, [1.0; 7]).set_known(start_values).map_err(anyhow::Error::msg)?;
     let dir = out.join("s2");
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let unseen_dir = dir.join("unseen");
+    std::fs::create_dir_all(&unseen_dir).with_context(|| format!("cannot create {}", unseen_dir.display()))?;
     let truth_car = as_built();
     let catalogue = Vehicle::ZHAI_PASSENGER;
     println!(
@@ -300,6 +564,17 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
         settings.seed,
         100.0 * settings.noise_fraction
     );
+    if !start_values.is_empty() {
+        print!(
+            "start values, over the study's in every FMU run and in the in-process filter: {}",
+            start_values.summary()
+        );
+        if fmu_only.is_empty() {
+            println!();
+        } else {
+            println!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
+        }
+    }
     println!(
         "truth: vehicle-track coupled (modal rail on discrete supports, sleepers, ballast, Hertz contact, Zhai's \
          integrator at 1e-4 s) on the car as built: car body {:.0} kg (catalogue {:.0}), primary {:.3} MN/m (catalogue \
@@ -320,13 +595,7 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
         "after {SETTLE} s: correlation; running RMSE ({RMSE_WINDOW} s window) mean and variance; RMSE over the true \
          force's dynamic σ; weld: peak dynamic force error; spectra within 3 dB; share of errors inside the FMU's ±2σ"
     );
-    // The recordings' and the JSON's metrics are the table's: from the settling time on.
-    let options = Options {
-        rmse_window: RMSE_WINDOW,
-        psd_segment: settings.rate.round() as usize,
-        from: SETTLE,
-        ..Options::default()
-    };
+    let given = Given { fmu: &fmu, start_values, catalogue: &catalogue, weighed: truth_car.static_wheel_load() };
     let mut srckf = String::new();
     let _ = writeln!(
         srckf,
@@ -364,91 +633,53 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
         "(e/σ)² worst wheel",
         "NIS/rows"
     );
+    // The truths first, on every core: they take most of the time (the coupled model at
+    // 1e-4 s, about 1 s per run), and the FMU runs, one instance at a time, cannot share
+    // them out.
+    let paper_runs = Case::ALL.map(|case| (Scenario { case, spectrum: settings.spectrum }, settings.clone()));
+    let unseen_runs = unseen_runs(settings, quick);
+    let every_run: Vec<&(Scenario, Settings)> = paper_runs.iter().chain(&unseen_runs).collect();
+    let truths: Vec<Truth> = shard::run(&every_run, Shard::ALL, |(scenario, settings)| scenario.simulate(settings))
+        .into_iter()
+        .map(|(_, truth)| truth)
+        .collect();
+    let (paper_truths, unseen_truths) = truths.split_at(paper_runs.len());
     let mut failures = 0;
     let mut recordings = Vec::new();
     let mut cases = Vec::new();
-    for case in Case::ALL {
-        let truth = simulate(case, settings);
-        let measurements = measure(&truth, settings.noise_fraction, settings.seed);
-        let tuning = Tuning::new(settings, measurements.noise_std);
-        let parameters = fmu_run::parameters(&catalogue, truth_car.static_wheel_load(), &tuning);
-        let sim = Simulated {
-            case,
-            settings,
-            truth: &truth,
-            measurements: &measurements,
-            parameters: &parameters,
-            start_values,
-        };
-        let stem = dir.join(case.name());
-        let mut runs = Vec::new();
-        let mut ran: Vec<(FilterKind, Counts, f64)> = Vec::new();
+    for ((scenario, _), truth) in paper_runs.iter().zip(paper_truths) {
+        let (scenario, case) = (*scenario, scenario.case);
+        let runs = run_case(&given, (scenario, settings, truth), &FilterKind::ALL, &dir.join(case.name()))?;
         let (paper_corr, paper_rmse, paper_var) = published(case);
         let mut case_figures = CaseFigures {
-            case: case.name(),
-            paper: PaperFigures {
+            case: scenario.to_string(),
+            published: scenario.is_published(),
+            speed: settings.speed,
+            rate: settings.rate,
+            paper: Some(PaperFigures {
                 correlation: paper_corr,
                 running_rmse_mean: paper_rmse,
                 running_rmse_variance: paper_var,
-            },
+            }),
             failure: None,
             filters: Vec::new(),
         };
-        let vehicle = user_vehicle(&catalogue, truth_car.static_wheel_load());
-        for kind in FilterKind::ALL {
-            let log = log_path(&stem, kind);
-            let fmu_run = fmu_run::run(&fmu, kind, &sim, &log).and_then(|counts| Ok((counts, read_log(&log)?)));
-            let checked = fmu_run.and_then(|(counts, run)| {
-                let library = run_filter(kind, vehicle, &tuning, &measurements).map_err(anyhow::Error::msg)?;
-                let logged = rows_of(run.channel(ESTIMATE)?, ["F_N1", "F_N2", "F_N3", "F_N4"])?;
-                let difference = largest_difference(&logged, &library.forces)?;
-                Ok((counts, run, difference))
-            });
-            match checked {
-                Ok((counts, run, difference)) => {
-                    runs.push(run);
-                    ran.push((kind, counts, difference));
-                }
-                Err(e) => {
-                    failures += 1;
-                    let _ = writeln!(filters, "{:<12} {:<8} FAILED: {e:#}", case.name(), kind.name());
-                    case_figures.filters.push(FilterFigures {
-                        filter: kind.name(),
-                        failure: Some(format!("{e:#}")),
-                        rejected_rows: None,
-                        fmu_vs_in_process_max_abs_difference: None,
-                        worst_wheel: None,
-                        wheels: Vec::new(),
-                        nis: None,
-                    });
-                }
-            }
+        recordings.extend(runs.recording);
+        for (kind, why) in runs.failed {
+            failures += 1;
+            let _ = writeln!(filters, "{:<12} {:<8} FAILED: {why}", case.name(), kind.name());
+            case_figures.filters.push(failed_figures(kind, why));
         }
-        let figures = compare_case(&runs, &options, &stem).and_then(|(comparison, recording)| {
-            recordings.push(recording);
-            let mut per_run = Vec::new();
-            for (report, run) in comparison.runs.iter().zip(&runs) {
-                let after = analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() })?;
-                let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
-                    pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
-                };
-                per_run.push((wheels(&report.pairs), wheels(&after.pairs), report.nis.clone()));
-            }
-            Ok(per_run)
-        });
-        let figures = match figures {
-            Ok(figures) => figures,
-            Err(e) => {
-                failures += 1;
-                let _ = writeln!(filters, "{:<12} FAILED to compare the filters: {e}", case.name());
-                case_figures.failure = Some(e.to_string());
-                cases.push(case_figures);
-                continue;
-            }
-        };
-        for ((kind, counts, difference), (wheels, after, nis)) in ran.iter().zip(&figures) {
-            if *kind == FilterKind::SrCkf {
-                for (j, (w, a)) in wheels.iter().zip(after).enumerate() {
+        if let Some(e) = runs.comparison_failure {
+            failures += 1;
+            let _ = writeln!(filters, "{:<12} FAILED to compare the filters: {e}", case.name());
+            case_figures.failure = Some(e);
+            cases.push(case_figures);
+            continue;
+        }
+        for r in &runs.ran {
+            if r.kind == FilterKind::SrCkf {
+                for (j, (w, a)) in r.wheels.iter().zip(&r.after).enumerate() {
                     let paper = |v: f64, digits: usize| if j == 0 { format!("{v:.digits$}") } else { "".into() };
                     let _ = writeln!(
                         srckf,
@@ -472,60 +703,73 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
                     );
                 }
             }
-            let worst = |f: fn(&WheelFigures) -> f64, pick: fn(f64, f64) -> f64, start: f64| {
-                wheels.iter().map(f).fold(start, pick)
-            };
-            let worst_normalised_error = farthest_from_one(wheels);
-            let worst_wheel = WorstWheel {
-                correlation_min: worst(|w| w.correlation, f64::min, f64::INFINITY),
-                rmse_over_dynamic_std_max: worst(|w| w.rmse / w.dynamic_std, f64::max, 0.0),
-                weld_peak_error_max_abs: weld_percent(
-                    case,
-                    worst(|w| w.peak_error, |a, b| if b.abs() > a.abs() { b } else { a }, 0.0),
-                ),
-                two_sigma_coverage_min: Some(worst(|w| w.two_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
-                one_sigma_coverage_min: Some(worst(|w| w.one_sigma, f64::min, f64::INFINITY)).filter(|c| !c.is_nan()),
-                normalised_error_worst_wheelset: worst_normalised_error.map(|(j, _)| j + 1),
-                normalised_error_worst: worst_normalised_error.map(|(_, n)| n),
-                after_step_correlation_min: after.iter().map(|a| a.correlation).fold(f64::INFINITY, f64::min),
-            };
+            let worst = worst_wheel(case, r);
+            let [corr, ratio, two, rejected, after, difference, one, rest] = worst_columns(&worst, r);
+            let peak_error = worst.weld_peak_error_max_abs.map_or("—".into(), |p| format!("{p:+.1} %"));
             let _ = writeln!(
                 filters,
-                "{:<12} {:<8} {:>9.4} {:>11.3} {:>9} {:>10.3} {:>9} {:>10.4} {:>12.1e} {:>7} {:>20} {:>17}",
+                "{:<12} {:<8} {corr} {ratio} {peak_error:>9} {two} {rejected} {after} {difference} {one} {rest}",
                 case.name(),
-                kind.name(),
-                worst_wheel.correlation_min,
-                worst_wheel.rmse_over_dynamic_std_max,
-                peak(case, worst(|w| w.peak_error, |a, b| if b.abs() > a.abs() { b } else { a }, 0.0)),
-                worst(|w| w.two_sigma, f64::min, f64::INFINITY),
-                counts.rejected,
-                worst_wheel.after_step_correlation_min,
-                difference,
-                worst_wheel.one_sigma_coverage_min.map_or("—".into(), |c| format!("{c:.3}")),
-                worst_normalised_error.map_or("—".into(), |(j, n)| format!(
-                    "{}: {}",
-                    j + 1,
-                    read(Some((n.mean_square, n.reading)))
-                )),
-                read(nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
+                r.kind.name(),
             );
-            case_figures.filters.push(FilterFigures {
-                filter: kind.name(),
-                failure: None,
-                rejected_rows: Some(counts.rejected),
-                fmu_vs_in_process_max_abs_difference: Some(*difference),
-                worst_wheel: Some(worst_wheel),
-                wheels: wheels
-                    .iter()
-                    .zip(after)
-                    .enumerate()
-                    .map(|(j, (w, a))| WheelTable::new(case, j + 1, w, a))
-                    .collect(),
-                nis: nis.clone(),
-            });
+            case_figures.filters.push(filter_figures(case, r, worst));
         }
         let order = |f: &FilterFigures| FilterKind::ALL.iter().position(|k| k.name() == f.filter);
         case_figures.filters.sort_by_key(order);
+        cases.push(case_figures);
+    }
+    let mut unseen = String::new();
+    let _ = writeln!(
+        unseen,
+        "{:<18} {:>5} {:>5} {:<8} {:>9} {:>11} {:>10} {:>9} {:>10} {:>12} {:>7} {:>20} {:>17}",
+        "unseen track",
+        "km/h",
+        "Hz",
+        "filter",
+        "corr min",
+        "RMSE/σd max",
+        "2σ min",
+        "rejected",
+        "after step",
+        "vs library N",
+        "1σ min",
+        "(e/σ)² worst wheel",
+        "NIS/rows"
+    );
+    for ((scenario, unseen_settings), truth) in unseen_runs.iter().zip(unseen_truths) {
+        let (km_h, rate) = (unseen_settings.speed * 3.6, unseen_settings.rate);
+        let name = format!("{}_{km_h:.0}kmh_{rate:.0}hz", scenario.to_string().replace('/', "_"));
+        let runs = run_case(&given, (*scenario, unseen_settings, truth), &[UNSEEN_FILTER], &unseen_dir.join(name))?;
+        let label = format!("{:<18} {km_h:>5.0} {rate:>5.0}", scenario.to_string());
+        let mut case_figures = CaseFigures {
+            case: scenario.to_string(),
+            published: false,
+            speed: unseen_settings.speed,
+            rate,
+            paper: None,
+            failure: None,
+            filters: Vec::new(),
+        };
+        for (kind, why) in runs.failed {
+            failures += 1;
+            let _ = writeln!(unseen, "{label} {:<8} FAILED: {why}", kind.name());
+            case_figures.filters.push(failed_figures(kind, why));
+        }
+        if let Some(e) = runs.comparison_failure {
+            failures += 1;
+            let _ = writeln!(unseen, "{label} FAILED to compare: {e}");
+            case_figures.failure = Some(e);
+        }
+        for r in &runs.ran {
+            let worst = worst_wheel(scenario.case, r);
+            let [corr, ratio, two, rejected, after, difference, one, rest] = worst_columns(&worst, r);
+            let _ = writeln!(
+                unseen,
+                "{label} {:<8} {corr} {ratio} {two} {rejected} {after} {difference} {one} {rest}",
+                r.kind.name()
+            );
+            case_figures.filters.push(filter_figures(scenario.case, r, worst));
+        }
         cases.push(case_figures);
     }
     write_table(
@@ -540,6 +784,9 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
                 noise_fraction: settings.noise_fraction,
                 settle: SETTLE,
                 rmse_window: RMSE_WINDOW,
+                quick,
+                start_values: start_values.iter().map(|(n, v)| (n.to_string(), v)).collect(),
+                start_values_fmu_only: fmu_only.clone(),
             },
             units: units(&UNITS),
             paper_source: PAPER_SOURCE,
@@ -548,8 +795,19 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
     )?;
     println!("SRCKF (the paper's filter), per wheelset; the paper's figures are for wheelset 1:");
     print!("{srckf}");
-    println!("every filter, the worst of the four wheels (rejected: measurement rows the FMU's gate left out):");
+    println!(
+        "every filter, the worst of the four wheels (rejected: measurement rows the FMU's gate left out){}:",
+        fmu_only_note(&fmu_only)
+    );
     print!("{filters}");
+    println!(
+        "unseen tracks, spectra the set-up was not made for (truth::s2::cases::Scenario::UNSEEN): the random case on \
+         each at the speed and rate shown, {} s; no paper figures; {} only, the worst of the four wheels{}:",
+        settings.duration,
+        UNSEEN_FILTER.name(),
+        if quick { "; --quick runs one" } else { "" }
+    );
+    print!("{unseen}");
     println!(
         "paper: {PAPER_SOURCE}, its truth and estimator sharing one model (RMSE 0.2 % of the wheel load); ours differ \
          (track, Hertz contact, the user's catalogue values)"
@@ -558,7 +816,24 @@ pub fn report(settings: &Settings, start_values: &StartValues, fmu_dir: &Path, o
     for recording in &recordings {
         println!("  {}", recording.display());
     }
+    println!(
+        "  and one per unseen run in {} (<track>_<km/h>kmh_<Hz>hz.rrd, {} in all)",
+        unseen_dir.display(),
+        unseen_runs.len()
+    );
     Ok(failures)
+}
+
+/// What the `vs library` figures mean when start values reach the FMU only: nothing to say
+/// without any.
+fn fmu_only_note(fmu_only: &[String]) -> String {
+    if fmu_only.is_empty() {
+        return String::new();
+    }
+    format!(
+        "; start values in the FMU only, not in-process: {}, so a vs-library difference is theirs",
+        fmu_only.join(", ")
+    )
 }
 
 /// The wheel (index from 0) whose mean `(e/σ)²` is the farthest from 1 in ratio (a σ twice

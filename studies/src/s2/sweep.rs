@@ -1,10 +1,13 @@
 //! `kalfmu s2-sweep`: how the S2 estimate degrades, with no retuning, across speeds,
 //! errors in the user's car-body mass and primary stiffness, the sampling rate and the
 //! random track's seed. The runs go to all cores; `--shard K/N` runs a share of them.
+//! `--set` and `--values` change the study's tuning (`study::Tuning::set`: its FMU
+//! parameter names) in every run; the vehicle is the sweep's own variable.
 
 use std::fmt::Write as _;
 
 use estimator::FilterKind;
+use start_values::StartValues;
 
 use super::study::{run_filter, score, user_vehicle, Tuning};
 use crate::shard::{self, Shard};
@@ -36,6 +39,12 @@ pub struct Args {
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
+    /// Start values over the study's tuning, by the FMU's parameter names (those of
+    /// `s2::study::Tuning`; the vehicle's and the supervisor's are not the in-process
+    /// filter's). A value is the FMU's, so the same at every rate: `q_body_std` is a std
+    /// per sample, where the study's own comes from an intensity per second.
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// What the user has of the vehicle: the catalogue (which is not the car as built), or the
@@ -87,6 +96,9 @@ struct Job {
 /// Runs the sweep and prints one table: per case, rate, speed and vehicle variant, the
 /// worst wheel's correlation (min and mean over the seeds) and RMSE over the dynamic σ.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    // A name or value the tuning refuses costs no run.
+    Tuning::new(&Settings::default(), [1.0; 7]).set_all(&start_values).map_err(anyhow::Error::msg)?;
     let mut variants = vec![Variant::Catalogue];
     let signed: Vec<f64> = args.errors.iter().flat_map(|&e| [-e, e]).collect();
     variants.extend(signed.iter().map(|&e| Variant::CarBodyMass(e)));
@@ -113,7 +125,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let truth = simulate(row.case, &settings);
         let measurements = measure(&truth, settings.noise_fraction, settings.seed);
         let vehicle = user_vehicle(&row.variant.vehicle(), as_built().static_wheel_load());
-        let tuning = Tuning::new(&settings, measurements.noise_std);
+        let mut tuning = Tuning::new(&settings, measurements.noise_std);
+        tuning.set_all(&start_values)?;
         run_filter(args.filter, vehicle, &tuning, &measurements).map(|e| score(&truth, &e, settings.rate, 0.5))
     });
     let mut out = String::new();
@@ -124,6 +137,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
          error shown; seeds 1..={}, {} s per run; worst of the four wheels after 0.5 s",
         args.filter, args.seeds, args.duration
     );
+    if !start_values.is_empty() {
+        let _ = writeln!(out, "start values over the study's tuning in every run: {}", start_values.summary());
+    }
     let _ = writeln!(
         out,
         "{:<12} {:>6} {:>7} {:<10} {:>6} {:>9} {:>9} {:>12}",

@@ -128,3 +128,49 @@ pub fn run(
         |_| {},
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use truth::s4::channels::simulate;
+    use truth::s4::faults::Faults;
+    use truth::s4::profile::Profile;
+
+    /// Every number the FMU runs are given but the recording's clock is one the
+    /// in-process filter takes by the same name, so that a start value reaches both.
+    #[test]
+    fn set_changes_exactly_the_parameter_of_its_name() {
+        let recording = simulate(&Profile::paper(), &Faults::none(), 1);
+        let tuning = Tuning::paper();
+        let study = parameters(&recording, &tuning);
+        let mut names: Vec<&str> = study.iter().map(|(n, _)| *n).filter(|&n| n != "sample_time").collect();
+        names.sort_unstable();
+        let mut taken = Tuning::NAMES.to_vec();
+        taken.sort_unstable();
+        assert_eq!(names, taken);
+        for &(name, old) in &study {
+            let mut changed = tuning;
+            if name == "sample_time" {
+                assert!(changed.set(name, 2.0 * old).is_err(), "the clock is the recording's");
+                continue;
+            }
+            let new = 1.5 * old + 0.25;
+            changed.set(name, new).unwrap();
+            for (&(n, before), (m, after)) in study.iter().zip(parameters(&recording, &changed)) {
+                assert_eq!(n, m);
+                assert_eq!(after, if n == name { new } else { before }, "{n} after setting {name}");
+            }
+        }
+    }
+
+    #[test]
+    fn set_refuses_names_it_does_not_have_and_values_the_fmu_refuses() {
+        let mut tuning = Tuning::paper();
+        let unknown = tuning.set("gate_probability", 0.99).unwrap_err();
+        assert!(unknown.contains("gate_probability") && unknown.contains("jerk_intensity"), "{unknown}");
+        assert!(tuning.set("jerk_intensity", -1.0).is_err());
+        assert!(tuning.set("prior_speed", f64::NAN).is_err());
+        assert!(tuning.set("prior_speed", -3.0).is_ok(), "a mean may be negative");
+        assert_eq!(tuning, Tuning { prior_speed: -3.0, ..Tuning::paper() }, "a refused value changes nothing");
+    }
+}

@@ -53,10 +53,11 @@
 
 use estimator::models::PrwTrain;
 use estimator::{
-    build_filter, FilterKind, Gaussian, QuantizedSteps, RowOutcome, Sample, SupervisedFilter, Supervisor,
+    build_filter, FilterKind, Gaussian, Noise, QuantizedSteps, RowOutcome, Sample, SupervisedFilter, Supervisor,
     SupervisorSettings, UnscentedParams,
 };
 use nalgebra::DMatrix;
+use start_values::StartValues;
 
 use truth::s4::channels::Channel;
 use truth::s4::parameters::SLOT_PITCH;
@@ -69,19 +70,34 @@ pub struct Tuning {
     pub jerk_intensity: f64,
     /// Random-walk intensity of the offsets (m²/s); 0: constants.
     pub offset_walk: f64,
-    /// Each channel's position noise (m), the sensor's specification: `R = σ²`.
-    pub channel_noise_std: f64,
+    /// Each channel's position noise (m) in [`Channel::ALL`]'s order, the sensor's
+    /// specification: `R = σ²` on its row.
+    pub channel_noise_std: [f64; 4],
     /// A marker reading's noise (m).
     pub marker_noise_std: f64,
     /// Prior σ of each channel's offset (m).
     pub offset_prior_std: f64,
-    /// Prior σ of the position around the first telegram's mean reading (m).
+    /// Prior mean of the position (m); `None`: the first telegrams' mean reading less
+    /// their levers, which is what a train knows when it starts.
+    pub prior_position: Option<f64>,
+    /// Prior σ of the position around its prior mean (m).
     pub position_prior_std: f64,
-    /// Prior σ of the speed around 0 (m/s).
+    /// Prior mean of the speed (m/s).
+    pub prior_speed: f64,
+    /// Prior σ of the speed (m/s).
     pub speed_prior_std: f64,
-    /// Prior σ of the acceleration around 0 (m/s²).
+    /// Prior mean of the acceleration (m/s²).
+    pub prior_acceleration: f64,
+    /// Prior σ of the acceleration (m/s²).
     pub acceleration_prior_std: f64,
+    /// The UKF's spread: α = 1, β = 2, κ = 0 in every study's runs (λ = 0: the cubature
+    /// rule's 2n points, and a centre point with no weight in the mean).
+    pub unscented: UnscentedParams,
 }
+
+/// The FMU's parameter of each channel's noise, in [`Channel::ALL`]'s order.
+pub const CHANNEL_NOISE_PARAMETERS: [&str; 4] =
+    ["r_P_head_left_std", "r_P_head_right_std", "r_P_tail_left_std", "r_P_tail_right_std"];
 
 impl Tuning {
     /// For the paper's run, whose acceleration jumps between 0 and ±2.5 m/s² at once.
@@ -111,12 +127,16 @@ impl Tuning {
         Self {
             jerk_intensity: 10.0,
             offset_walk: 0.0,
-            channel_noise_std: 1.5e-3,
+            channel_noise_std: [1.5e-3; 4],
             marker_noise_std: 0.01,
             offset_prior_std: 0.05,
+            prior_position: None,
             position_prior_std: 1.0,
+            prior_speed: 0.0,
             speed_prior_std: 150.0,
+            prior_acceleration: 0.0,
             acceleration_prior_std: 3.0,
+            unscented: UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 },
         }
     }
 
@@ -133,16 +153,128 @@ impl Tuning {
     }
 
     /// The model with these numbers and `levers`, with the marker row (missing where no
-    /// marker passes, as everywhere in our recordings).
+    /// marker passes, as everywhere in our recordings). Its one `channel_noise_std` (the
+    /// largest of the four) is not the filter's `R`: [`Tuning::noise`] has each channel's.
     pub fn model(&self, levers: [f64; 4]) -> PrwTrain {
         PrwTrain {
             marker: true,
             jerk_intensity: self.jerk_intensity,
             offset_walk: self.offset_walk,
-            channel_noise_std: self.channel_noise_std,
+            channel_noise_std: self.channel_noise_std.into_iter().fold(0.0, f64::max),
             marker_noise_std: self.marker_noise_std,
             ..PrwTrain::new(levers)
         }
+    }
+
+    /// `Q` of `model` over `dt`, and `R` from each channel's noise and the marker's, as the
+    /// FMU forms them.
+    pub fn noise(&self, model: &PrwTrain, dt: f64) -> Result<Noise, String> {
+        let mut r = DMatrix::zeros(PrwTrain::MARKER + 1, PrwTrain::MARKER + 1);
+        for (c, std) in self.channel_noise_std.iter().enumerate() {
+            r[(c, c)] = std.powi(2);
+        }
+        r[(PrwTrain::MARKER, PrwTrain::MARKER)] = self.marker_noise_std.powi(2);
+        Noise::new(model.process_noise(dt), r).map_err(|e| e.to_string())
+    }
+
+    /// The FMU parameters a tuning sets, each by the name `fmu_run::parameters` gives it
+    /// (the recording's `sample_time` aside: it is the data's clock, not a tuning).
+    pub const NAMES: [&'static str; 17] = [
+        "jerk_intensity",
+        "offset_walk",
+        "r_P_head_left_std",
+        "r_P_head_right_std",
+        "r_P_tail_left_std",
+        "r_P_tail_right_std",
+        "r_marker_position_std",
+        "prior_offset_std",
+        "prior_position",
+        "prior_position_std",
+        "prior_speed",
+        "prior_speed_std",
+        "prior_acceleration",
+        "prior_acceleration_std",
+        "ukf_alpha",
+        "ukf_beta",
+        "ukf_kappa",
+    ];
+
+    /// Whether [`Tuning::set`] takes `name`.
+    pub fn takes(name: &str) -> bool {
+        Self::NAMES.contains(&name)
+    }
+
+    /// Sets the FMU parameter `name` to `value` as the in-process filter has it, so that
+    /// `fmu_run::parameters` then writes `value` for it. An error names what is wrong: a
+    /// name the tuning does not have (the FMU's supervisor and slip settings, `filter`, …
+    /// are the FMU's only), or a value the FMU would refuse too (not finite, or a negative
+    /// σ or intensity).
+    pub fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+        if name == "sample_time" {
+            return Err(
+                "sample_time is the recording's telegram interval, not a tuning of the in-process filter".into()
+            );
+        }
+        if !value.is_finite() {
+            return Err(format!("{name} = {value}: not a finite number"));
+        }
+        let mean = |slot: &mut f64| *slot = value;
+        let spread = |slot: &mut f64| {
+            if value < 0.0 {
+                return Err(format!("{name} = {value}: a σ or an intensity is not negative"));
+            }
+            *slot = value;
+            Ok(())
+        };
+        match name {
+            "jerk_intensity" => spread(&mut self.jerk_intensity)?,
+            "offset_walk" => spread(&mut self.offset_walk)?,
+            "r_marker_position_std" => spread(&mut self.marker_noise_std)?,
+            "prior_offset_std" => spread(&mut self.offset_prior_std)?,
+            "prior_position" => self.prior_position = Some(value),
+            "prior_position_std" => spread(&mut self.position_prior_std)?,
+            "prior_speed" => mean(&mut self.prior_speed),
+            "prior_speed_std" => spread(&mut self.speed_prior_std)?,
+            "prior_acceleration" => mean(&mut self.prior_acceleration),
+            "prior_acceleration_std" => spread(&mut self.acceleration_prior_std)?,
+            "ukf_alpha" => mean(&mut self.unscented.alpha),
+            "ukf_beta" => mean(&mut self.unscented.beta),
+            "ukf_kappa" => mean(&mut self.unscented.kappa),
+            _ => match CHANNEL_NOISE_PARAMETERS.iter().position(|&n| n == name) {
+                Some(c) => spread(&mut self.channel_noise_std[c])?,
+                None => {
+                    return Err(format!(
+                        "'{name}' is not a parameter the in-process S4 filter takes (it takes {})",
+                        Self::NAMES.join(", ")
+                    ))
+                }
+            },
+        }
+        Ok(())
+    }
+
+    /// Every start value of `values` set on this tuning; returns the names it does not
+    /// take ([`Tuning::takes`]), which only an FMU run can be given. A value of a name it
+    /// takes that [`Tuning::set`] refuses is an error.
+    pub fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String> {
+        let mut fmu_only = Vec::new();
+        for (name, value) in values.iter() {
+            if Self::takes(name) {
+                self.set(name, value).map_err(|e| format!("start value {e}"))?;
+            } else {
+                fmu_only.push(name.to_string());
+            }
+        }
+        Ok(fmu_only)
+    }
+
+    /// Every start value of `values` set on this tuning, an in-process run's: a name it
+    /// does not take is an error.
+    pub fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
+        for (name, value) in values.iter() {
+            self.set(name, value).map_err(|e| format!("start value {e}"))?;
+        }
+        Ok(())
     }
 }
 
@@ -183,8 +315,13 @@ impl Settings {
             tuning,
             // A live position channel never repeats a reading bit for bit: a resent
             // telegram is stuck from its first repeat.
-            // The FMU's: Q as given (see `kalfmu_fmu`'s S4 table), jumps taken.
-            supervisor: SupervisorSettings { stuck_after: 2, adaptation_window: 0, ..SupervisorSettings::default() },
+            // The FMU's: the acceleration's noise adapts upwards only (see
+            // `kalfmu_fmu`'s S4 table), jumps taken.
+            supervisor: SupervisorSettings {
+                stuck_after: 2,
+                min_process_noise_scale: 1.0,
+                ..SupervisorSettings::default()
+            },
             slips: SlipHandling::Rebase,
             slip_after: 3,
             slip_tolerance: 0.01,
@@ -254,6 +391,12 @@ pub struct Run {
     pub slips: Vec<SlipEvent>,
 }
 
+/// The position a run starts from without a [`Tuning::prior_position`]: the first
+/// telegrams' mean reading less their levers.
+pub fn first_position(recording: &Recording) -> f64 {
+    Channel::ALL.iter().map(|&c| recording.position[c as usize][0] - c.lever()).sum::<f64>() / 4.0
+}
+
 /// Runs the filter of `settings` over `recording` (see the module documentation).
 pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
     let n = recording.n_telegrams();
@@ -261,11 +404,11 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
     let levers = Channel::ALL.map(Channel::lever);
     let tuning = &settings.tuning;
     let model = tuning.model(levers);
-    let noise = model.noise(dt).map_err(|e| format!("setup: {e}"))?;
-    let first: f64 = (0..4).map(|c| recording.position[c][0] - levers[c]).sum::<f64>() / 4.0;
+    let noise = tuning.noise(&model, dt).map_err(|e| format!("setup: {e}"))?;
+    let position = tuning.prior_position.unwrap_or_else(|| first_position(recording));
     let offset_variance = tuning.offset_prior_std.powi(2);
     let prior = Gaussian::diagonal(
-        &[first, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        &[position, tuning.prior_speed, tuning.prior_acceleration, 0.0, 0.0, 0.0, 0.0],
         &[
             tuning.position_prior_std.powi(2),
             tuning.speed_prior_std.powi(2),
@@ -276,8 +419,8 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
             offset_variance,
         ],
     );
-    let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
-    let filter = build_filter(settings.kind, model, noise, &prior, unscented).map_err(|e| format!("setup: {e}"))?;
+    let filter =
+        build_filter(settings.kind, model, noise, &prior, tuning.unscented).map_err(|e| format!("setup: {e}"))?;
     let mut supervisor = Supervisor::new(settings.supervisor, PrwTrain::MARKER + 1)
         .and_then(|s| s.with_jump_states(filter.state_dim(), &PrwTrain::UNKNOWN_INPUTS))
         .map_err(|e| format!("setup: {e}"))?;
@@ -337,7 +480,7 @@ pub fn run(recording: &Recording, settings: &Settings) -> Result<Run, String> {
                 stale: rows.map(|r| matches!(r, RowOutcome::Missing | RowOutcome::Stuck)),
                 rejected: rows.map(|r| r == RowOutcome::Rejected),
                 faulty,
-                weights: PrwTrain::speed_weights(&p, [tuning.channel_noise_std.powi(2); 4], faulty.map(|f| !f)),
+                weights: PrwTrain::speed_weights(&p, tuning.channel_noise_std.map(|s| s.powi(2)), faulty.map(|f| !f)),
                 reacquired: outcome.reacquired.map(|c| Channel::ALL[c]),
                 slip,
                 healthy: step.supervisor.healthy(),

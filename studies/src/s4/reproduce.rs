@@ -1,13 +1,21 @@
 //! S4 in `kalfmu reproduce`: on the paper's test run (and, without `--quick`, the
-//! 500 km/h run), with the default faults, every filter kind through the packaged FMU,
+//! 500 km/h run), with the default faults and then with the `frequent` faults (the four
+//! fault rates ten times the default's: a case neither the jerk of the tuning nor the
+//! detectors' settings were chosen on), every filter kind through the packaged FMU,
 //! checked against the same filter in-process; then the study's table (`s4-compare`'s)
 //! with ours read from the FMU's outputs (SRCKF, the FMU's default), beside the raw
 //! average and the paper's pipeline (in-process: the paper's method, not our FMU); one
-//! log per run and one comparison recording per profile (`out/s4/`), and the figures as
+//! log per run and one comparison recording per case (`out/s4/`), and the figures as
 //! `table.json` there ([`Table`]). Per filter, whether the FMU's σ of speed and position is
 //! honest, from the analyzer's report of its log (docs/analyzer.md, "Is the σ honest?"):
 //! their 1σ and 2σ coverage and mean (e/σ)² with its reading, and the NIS against the
 //! measurement rows used.
+//!
+//! Start values (`--set`, `--values`) go to every FMU run over the study's parameters and,
+//! where the in-process filter has them ([`Tuning::set`]), to the in-process run it is
+//! checked against. Those it does not have (the supervisor's and the slips' settings,
+//! `filter`, `sample_time`, …) reach the FMU only: its difference from the in-process run
+//! then measures what they change, which the `vs library` line says.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -29,7 +37,7 @@ use super::ours::{self, Settings, Tuning};
 use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
 use cosim::fmu_driver::ImportedFmu;
 use truth::s4::channels::simulate;
-use truth::s4::faults::Faults;
+use truth::s4::faults::{FaultProfile, Faults};
 use truth::s4::profile::Profile;
 
 /// The figures of S4's tables, as `table.json` has them.
@@ -37,14 +45,33 @@ use truth::s4::profile::Profile;
 pub struct Table {
     /// `"S4"`.
     pub study: &'static str,
-    /// Seed of the noise and the faults.
+    /// Seed of the noise and the faults (as `settings.seed`).
     pub seed: u64,
+    /// The set-up the figures are of.
+    pub settings: TableSettings,
     /// The unit of each dimensional field (see [`units`]).
     pub units: BTreeMap<&'static str, &'static str>,
     /// The paper's figures (§3.2), of its test run.
     pub paper: PaperFigures,
-    /// One entry per profile run: `paper`, and without `--quick` `high_speed`.
+    /// One entry per case run: `paper` and `paper_frequent`, and without `--quick`
+    /// `high_speed` and `high_speed_frequent`.
     pub profiles: Vec<ProfileFigures>,
+}
+
+/// The set-up of a [`Table`].
+#[derive(Serialize)]
+pub struct TableSettings {
+    /// Seed of the noise and the faults.
+    pub seed: u64,
+    /// Whether this is `--quick`'s short set (the paper's run alone, with both fault models).
+    pub quick: bool,
+    /// The start values given (`--set`, `--values`), set on every FMU run over the study's
+    /// parameters; empty without any.
+    pub start_values: BTreeMap<String, f64>,
+    /// Those of `start_values` the in-process filter does not take ([`Tuning::takes`]):
+    /// they reach the FMU only, and `fmu_vs_in_process_max_abs_difference` then measures
+    /// their effect.
+    pub start_values_fmu_only: Vec<String>,
 }
 
 /// The paper's figures: its pipeline against the raw average.
@@ -58,11 +85,19 @@ pub struct PaperFigures {
     pub paper_fused_ukf_speed_range: f64,
 }
 
-/// One profile's run.
+/// One case's run: a motion and a fault model.
 #[derive(Serialize)]
 pub struct ProfileFigures {
-    /// `paper` or `high_speed`.
+    /// The case, the stem of its logs and recording: `paper`, `paper_frequent`,
+    /// `high_speed`, `high_speed_frequent`.
+    pub case: &'static str,
+    /// The motion: `paper` (the paper's test run) or `high_speed` (to 500 km/h).
     pub profile: &'static str,
+    /// The fault model ([`FaultProfile`]'s name): `default` or `frequent`.
+    pub faults: &'static str,
+    /// Whether the settings were chosen on this case's fault model (`default`): `false`
+    /// for `frequent`, a case unlike the tuning's and not the paper's.
+    pub tuned_on: bool,
     /// The run's duration (s).
     pub duration: f64,
     /// Telegrams per channel.
@@ -176,30 +211,89 @@ fn comparison_figures(comparison: &Comparison) -> anyhow::Result<serde_json::Val
     Ok(figures)
 }
 
+/// One case of the table: a motion, a fault model, and the tuning ours runs on it.
+struct Case {
+    /// The stem of its logs and recording.
+    name: &'static str,
+    /// The motion's name.
+    profile: &'static str,
+    motion: Profile,
+    tuning: Tuning,
+    faults: FaultProfile,
+}
+
+/// The cases: the paper's run with the default and then the frequent faults, and without
+/// `--quick` the same for the 500 km/h run. Each motion keeps the tuning chosen for it on
+/// the default faults: the frequent faults are a rate it was not chosen on.
+fn cases(quick: bool) -> Vec<Case> {
+    let mut motions = vec![("paper", Profile::paper(), Tuning::paper())];
+    if !quick {
+        motions.push(("high_speed", Profile::high_speed(), Tuning::jerk_limited()));
+    }
+    let mut cases = Vec::new();
+    for (profile, motion, tuning) in motions {
+        for (name, faults) in [(profile, FaultProfile::Default), (frequent_name(profile), FaultProfile::Frequent)] {
+            cases.push(Case { name, profile, motion: motion.clone(), tuning, faults });
+        }
+    }
+    cases
+}
+
+/// The case name of a motion's run with the frequent faults.
+fn frequent_name(profile: &str) -> &'static str {
+    match profile {
+        "paper" => "paper_frequent",
+        _ => "high_speed_frequent",
+    }
+}
+
 /// Runs S4 through its FMU, prints the tables and writes them as `table.json` in `out/s4`;
 /// returns the number of failed runs.
 pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path, out: &Path) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    // A misspelt name or a value of the wrong type costs no run.
     fmu.check_start_values(start_values)?;
     let dir = out.join("s4");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    // Checked on the tuning of the first case: every case's takes the same names.
+    let fmu_only = Tuning::paper().set_known(start_values).map_err(anyhow::Error::msg)?;
     println!(
         "S4: maglev position and speed from four PRW position channels (head/tail × left/right, a telegram every \
-         0.02 s), the default faults of docs/studies/s4.md, seed {seed}; ours from {} driven through the fmi importer, \
-         logs and recordings in {}",
+         0.02 s), the default faults of docs/studies/s4.md and, as a case not tuned on, ten times their rates \
+         (frequent), seed {seed}; ours from {} driven through the fmi importer, logs and recordings in {}",
         fmu_dir.join(format!("{IDENTIFIER}.fmu")).display(),
         dir.display()
     );
-    let mut cases = vec![("paper", Profile::paper(), Tuning::paper())];
-    if !quick {
-        cases.push(("high_speed", Profile::high_speed(), Tuning::jerk_limited()));
+    if !start_values.is_empty() {
+        print!(
+            "start values, over the study's in every FMU run and in the in-process filter: {}",
+            start_values.summary()
+        );
+        if fmu_only.is_empty() {
+            println!();
+        } else {
+            println!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
+        }
     }
     let mut failures = 0;
     let mut profiles = Vec::new();
-    for (case, profile, tuning) in cases {
-        let recording = simulate(&profile, &Faults::default(), seed);
-        println!("{case}: {:.1} s, {} telegrams", profile.duration(), recording.n_telegrams());
-        let stem = dir.join(case);
+    for case in cases(quick) {
+        let Case { name: case_name, profile: profile_name, motion: profile, faults, .. } = &case;
+        let mut tuning = case.tuning;
+        tuning.set_known(start_values).map_err(anyhow::Error::msg)?;
+        let recording = simulate(profile, &faults.faults(), seed);
+        let tuned_on = *faults == FaultProfile::Default;
+        print!("{case_name}: {:.1} s, {} telegrams", profile.duration(), recording.n_telegrams());
+        if tuned_on {
+            println!();
+        } else {
+            println!(
+                "; faults {faults}: the default's four rates ×{} — a case unlike the tuning's (chosen on the default \
+                 faults), not the paper's",
+                Faults::FREQUENT_FACTOR
+            );
+        }
+        let stem = dir.join(case_name);
         let mut logs = Vec::new();
         let mut line = format!("{:<22}", "vs library (largest |Δ|)");
         let mut table = None;
@@ -208,7 +302,7 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
         let mut logged = Vec::new();
         for kind in FilterKind::ALL {
             let log = log_path(&stem, kind);
-            let checked = fmu_run::run(&fmu, kind, &recording, &tuning, case, start_values, &log).and_then(|_| {
+            let checked = fmu_run::run(&fmu, kind, &recording, &tuning, case_name, start_values, &log).and_then(|_| {
                 let run = read_log(&log)?;
                 let through_fmu = rows_of(run.channel(ESTIMATE)?, COMPARED)?;
                 let library = ours::run(&recording, &Settings::new(kind, tuning)).map_err(anyhow::Error::msg)?;
@@ -257,6 +351,7 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
                 }
             }
         }
+        line.push_str(&fmu_only_note(&fmu_only));
         let compared = compare_case(&logs, &Options::default(), &stem);
         if let Ok((comparison, _)) = &compared {
             for (report, &i) in comparison.runs.iter().zip(&logged) {
@@ -280,7 +375,10 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             })
             .collect();
         profiles.push(ProfileFigures {
-            profile: case,
+            case: case_name,
+            profile: profile_name,
+            faults: faults.name(),
+            tuned_on,
             duration: profile.duration(),
             telegrams: recording.n_telegrams(),
             filters,
@@ -289,11 +387,14 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
         });
         let mut text = String::new();
         if let Some(c) = &table {
-            text.push_str(
+            text.push_str(if fmu_only.is_empty() {
                 "ours: the SRCKF through the FMU; its detections and offsets are the same filter's in-process, \
-                 which the FMU equals (vs library)\n",
-            );
-            print_comparison(&mut text, seed, c);
+                 which the FMU equals (vs library)\n"
+            } else {
+                "ours: the SRCKF through the FMU; its detections and offsets are the same filter's in-process, \
+                 without the start values it does not take (vs library)\n"
+            });
+            print_comparison(&mut text, seed, *faults, c);
         }
         print!("{text}");
         println!("{line}");
@@ -319,6 +420,12 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
         &Table {
             study: "S4",
             seed,
+            settings: TableSettings {
+                seed,
+                quick,
+                start_values: start_values.iter().map(|(n, v)| (n.to_string(), v)).collect(),
+                start_values_fmu_only: fmu_only,
+            },
             units: units(&UNITS),
             paper: PaperFigures {
                 mean_abs_error_reduction_from_raw: PAPER_MEAN_REDUCTION,
@@ -329,4 +436,13 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
         },
     )?;
     Ok(failures)
+}
+
+/// What the `vs library` line says of start values the in-process filter does not take:
+/// nothing without any.
+fn fmu_only_note(fmu_only: &[String]) -> String {
+    if fmu_only.is_empty() {
+        return String::new();
+    }
+    format!(" (start values in the FMU only, not in-process: {}; a difference is theirs)", fmu_only.join(", "))
 }

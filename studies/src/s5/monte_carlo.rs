@@ -3,7 +3,8 @@
 //! each half (just before the change, and at the end): the spread of the error over the
 //! runs, its RMSE against the Cramér–Rao bound of the run's information, and the
 //! consistency of the filter's covariance (the coefficients' NEES, whose mean over the runs
-//! should be 10).
+//! should be 10). `--set`/`--values` change the tuning by the FMU's parameter names
+//! ([`Tuning::set`]).
 
 use std::fmt::Write as _;
 
@@ -12,6 +13,7 @@ use estimator::FilterKind;
 use super::excitation::cramer_rao;
 use super::study::{run_filter, Tuning};
 use crate::shard::{self, Shard};
+use start_values::StartValues;
 use truth::s5::flight::{flight, measure, simulate, Settings};
 use truth::s5::parameters::NAMES;
 
@@ -30,6 +32,11 @@ pub struct Args {
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
+    /// The tuning, by the FMU's parameter names, over the study's (`--set
+    /// q_coefficient_relative_std=1e-4`); a name the in-process filter does not take is an
+    /// error.
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// One run: the filter and the noise seed.
@@ -48,6 +55,10 @@ struct AtCheckpoint {
 
 /// Runs the Monte Carlo and prints one table per checkpoint.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    let mut tuning = Tuning::new(args.noise_scale);
+    // Before the flight is flown: a misspelt name costs no run.
+    tuning.set_all(&start_values).map_err(anyhow::Error::msg)?;
     let settings = Settings { noise_scale: args.noise_scale, ..Settings::default() };
     let truth = simulate(&settings);
     let half = (truth.time.len() - 1) / 2;
@@ -65,7 +76,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.noise_scale,
         )
     });
-    let tuning = Tuning::new(args.noise_scale);
     let jobs: Vec<Job> =
         args.filters.iter().flat_map(|&filter| (1..=args.runs).map(move |seed| Job { filter, seed })).collect();
     let results = shard::run(&jobs, args.shard, |job| {
@@ -88,6 +98,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "S5 Monte Carlo: {} noise seeds per filter, one tuning, sensor noise × {}; errors of each coefficient at the checkpoint",
         args.runs, args.noise_scale
     );
+    if !start_values.is_empty() {
+        let _ = writeln!(out, "tuning with the start values {}", start_values.summary());
+    }
     let mut failures = 0;
     for (c, (label, &k)) in ["before the change (9.995 s)", "at the end (20 s)"].iter().zip(&checkpoints).enumerate() {
         let _ = writeln!(out, "\n{label}:");

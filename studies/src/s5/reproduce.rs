@@ -10,6 +10,18 @@
 //! analyzer's report of its log (docs/analyzer.md, "Is the σ honest?"): their NEES, each
 //! coefficient's 1σ and 2σ coverage and mean (e/σ)² with its reading, and the NIS against
 //! the measurement rows used.
+//!
+//! Beside the published manoeuvre, each truth flies `roll-turn`
+//! ([`truth::s5::manoeuvre::Manoeuvre::roll_turn`]), one the tuning was not chosen on and
+//! the paper does not fly: the same figures, its paper columns blank (`null` in the
+//! JSON). `--quick` flies it on the first truth only.
+//!
+//! Start values (`--set`, `--values`) go to every FMU run, ours and the JSBSim driver's,
+//! over the study's parameters and, where the in-process filter has them
+//! ([`Tuning::set`]), to the in-process run the first truth's are checked against. Those
+//! it does not have (the airframe's, the supervisor's, `filter`, `sample_time`, …) reach
+//! the FMU only: its difference from the in-process run then measures what they change,
+//! which the `vs library` line says.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -26,11 +38,12 @@ use log_format::read::read_log;
 use log_format::write::{ESTIMATE, TRUTH};
 use serde::Serialize;
 
-use super::fmu_run::{self, IDENTIFIER};
+use super::fmu_run::{self, Flown, IDENTIFIER};
 use super::study::{run_filter, Tuning};
 use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
-use truth::s5::flight::{measure, simulate, Settings};
+use truth::s5::flight::{measure, simulate_named, Settings};
+use truth::s5::manoeuvre::Manoeuvre;
 use truth::s5::parameters::{NAMES, PAPER_SVD_CKF_AFTER, PAPER_SVD_CKF_BEFORE};
 
 /// The metrics, the ±2σ coverage and the spectra of the recordings are taken from here
@@ -118,7 +131,9 @@ pub struct Table {
     pub units: BTreeMap<&'static str, &'static str>,
     /// What the paper claims of its filters.
     pub paper_claim: &'static str,
-    /// The first truth (`6dof`, our 6-DOF) and the second (`jsbsim`).
+    /// Each truth flying each manoeuvre: the first truth (`6dof`, our 6-DOF) through the
+    /// published manoeuvre and through `roll-turn`, then the second (`jsbsim`) the same
+    /// (with `--quick`, through the published manoeuvre only).
     pub truths: Vec<TruthFigures>,
 }
 
@@ -131,13 +146,31 @@ pub struct TableSettings {
     pub sample_time: f64,
     /// The sensor noise as a multiple of docs/studies/s5.md's.
     pub noise_scale: f64,
+    /// Whether this is `--quick`'s short set (`roll-turn` on the first truth only).
+    pub quick: bool,
+    /// The start values given (`--set`, `--values`), set on every FMU run over the study's
+    /// parameters; empty without any.
+    pub start_values: BTreeMap<String, f64>,
+    /// Those of `start_values` the in-process filter does not take ([`Tuning::takes`]):
+    /// they reach the FMU only, and `fmu_vs_in_process_max_abs_difference` then measures
+    /// their effect.
+    pub start_values_fmu_only: Vec<String>,
 }
 
-/// One truth's tables.
+/// One truth's tables of one manoeuvre.
 #[derive(Debug, Serialize)]
 pub struct TruthFigures {
-    /// `6dof` or `jsbsim`, the stem of its logs.
+    /// `6dof` or `jsbsim`.
     pub truth: &'static str,
+    /// The manoeuvre flown ([`Manoeuvre::NAMES`]): `standard`, the published one, or
+    /// `roll-turn`.
+    pub manoeuvre: &'static str,
+    /// Whether the tuning was chosen on this manoeuvre: `false` for `roll-turn`, a case
+    /// unlike the tuning's and not the paper's (its paper figures are `null`).
+    pub tuned_on: bool,
+    /// The stem of its logs and recording: `6dof`, `6dof_roll_turn`, `jsbsim`,
+    /// `jsbsim_roll_turn`.
+    pub case: &'static str,
     /// The runs that failed, each with why.
     pub failures: Vec<FilterFailure>,
     /// The paper's Tables 1 and 2 (empty if no run succeeded).
@@ -173,15 +206,15 @@ pub struct CoefficientRow {
     pub coefficient: &'static str,
     /// Its true value at the table's instant.
     pub true_value: f64,
-    /// The paper's SVD-CKF estimate.
-    pub paper_svd_ckf: f64,
-    /// The paper's SVD-CKF's relative error from the true value (%).
-    pub paper_svd_ckf_relative_error: f64,
+    /// The paper's SVD-CKF estimate (`null` for a manoeuvre the paper does not fly).
+    pub paper_svd_ckf: Option<f64>,
+    /// The paper's SVD-CKF's relative error from the true value (%; `null` likewise).
+    pub paper_svd_ckf_relative_error: Option<f64>,
     /// Each filter's relative error from the true value (%), by filter kind.
     pub relative_error: BTreeMap<&'static str, f64>,
 }
 
-/// One filter's figures after the change at 10 s.
+/// One filter's figures after the change (at 10 s in both manoeuvres).
 #[derive(Debug, Serialize)]
 pub struct FilterFigures {
     /// The filter kind (`SRCKF`, …).
@@ -236,23 +269,83 @@ const UNITS: [(&str, &str); 6] = [
 /// What the paper claims, as the tables' footnote prints it.
 const PAPER_CLAIM: &str = "SVD-CKF within 3 % and CKF within 5 % of every coefficient, in both tables";
 
-/// Runs S5 through its FMU for both truths, prints the tables and writes them as
-/// `table.json` in `out/s5`; `python` runs the JSBSim driver. Returns the number of
-/// failed runs.
+/// One truth flying one manoeuvre.
+#[derive(Debug, Clone, Copy)]
+struct Case {
+    /// `6dof` or `jsbsim`.
+    truth: &'static str,
+    /// The manoeuvre's name.
+    manoeuvre: &'static str,
+    /// The stem of its logs and recording.
+    name: &'static str,
+}
+
+impl Case {
+    /// Whether the tuning was chosen on its manoeuvre, the published one.
+    fn tuned_on(&self) -> bool {
+        self.manoeuvre == "standard"
+    }
+
+    /// What the tables' titles and the truth's line say of the manoeuvre.
+    fn manoeuvre_text(&self) -> String {
+        if self.tuned_on() {
+            "the published manoeuvre".into()
+        } else {
+            format!(
+                "the {} manoeuvre (truth/data/s5_manoeuvre_roll_turn.json), one the tuning was not chosen on and \
+                 the paper does not fly: no paper figures",
+                self.manoeuvre
+            )
+        }
+    }
+}
+
+/// The cases in the order printed: each truth through the published manoeuvre, then
+/// through `roll-turn` (with `quick`, the first truth's only).
+fn cases(quick: bool) -> Vec<Case> {
+    let mut cases = vec![
+        Case { truth: "6dof", manoeuvre: "standard", name: "6dof" },
+        Case { truth: "6dof", manoeuvre: "roll-turn", name: "6dof_roll_turn" },
+        Case { truth: "jsbsim", manoeuvre: "standard", name: "jsbsim" },
+    ];
+    if !quick {
+        cases.push(Case { truth: "jsbsim", manoeuvre: "roll-turn", name: "jsbsim_roll_turn" });
+    }
+    cases
+}
+
+/// What every case's runs are given.
+struct Given<'a> {
+    settings: &'a Settings,
+    /// The in-process filter's tuning, the start values it takes set.
+    tuning: &'a Tuning,
+    start_values: &'a StartValues,
+    /// The start values the in-process filter does not take.
+    fmu_only: &'a [String],
+    fmu: &'a ImportedFmu,
+    fmu_path: &'a Path,
+    dir: &'a Path,
+    python: &'a Path,
+}
+
+/// Runs S5 through its FMU for both truths and both manoeuvres, prints the tables and
+/// writes them as `table.json` in `out/s5`; `python` runs the JSBSim driver. Returns the
+/// number of failed runs.
 pub fn report(
     settings: &Settings,
     start_values: &StartValues,
+    quick: bool,
     fmu_dir: &Path,
     out: &Path,
     python: &Path,
 ) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    // A misspelt name or a value of the wrong type costs no run.
     fmu.check_start_values(start_values)?;
     let dir = out.join("s5");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let truth = simulate(settings);
-    let measurements = measure(&truth, settings.noise_scale, settings.seed);
-    let tuning = Tuning::new(settings.noise_scale);
+    let mut tuning = Tuning::new(settings.noise_scale);
+    let fmu_only = tuning.set_known(start_values).map_err(anyhow::Error::msg)?;
     println!(
         "S5: tactical-missile force coefficients online, 20 states, 12 measurements every {} s — truth 1: the paper's \
          6-DOF (flat Earth, ISA), the ten coefficients changing at 10 s; sensor noise as docs/studies/s5.md × {}, seed {}",
@@ -260,36 +353,123 @@ pub fn report(
     );
     println!(
         "estimates from {} driven through the fmi importer with the deflections as inputs; logs and the comparison \
-         recording in {}",
+         recordings in {}",
         fmu_dir.join(format!("{IDENTIFIER}.fmu")).display(),
         dir.display()
     );
-    let stem = dir.join("6dof");
+    if !start_values.is_empty() {
+        print!(
+            "start values, over the study's in every FMU run and in the in-process filter: {}",
+            start_values.summary()
+        );
+        if fmu_only.is_empty() {
+            println!();
+        } else {
+            println!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
+        }
+    }
+    let fmu_path = fmu_dir.join(format!("{IDENTIFIER}.fmu"));
+    let given = Given {
+        settings,
+        tuning: &tuning,
+        start_values,
+        fmu_only: &fmu_only,
+        fmu: &fmu,
+        fmu_path: &fmu_path,
+        dir: &dir,
+        python,
+    };
     let mut failures = 0;
-    let mut runs = Vec::new();
-    let mut logs = Vec::new();
-    let mut run_failures = Vec::new();
+    let mut truths = Vec::new();
+    for case in cases(quick) {
+        let (case_failures, figures) = match case.truth {
+            "6dof" => six_dof(&given, case)?,
+            _ => jsbsim(&given, case)?,
+        };
+        failures += case_failures;
+        truths.push(figures);
+    }
+    write_table(
+        &dir,
+        &Table {
+            study: "S5",
+            settings: TableSettings {
+                seed: settings.seed,
+                sample_time: settings.sample_time,
+                noise_scale: settings.noise_scale,
+                quick,
+                start_values: start_values.iter().map(|(n, v)| (n.to_string(), v)).collect(),
+                start_values_fmu_only: fmu_only.clone(),
+            },
+            units: units(&UNITS),
+            paper_claim: PAPER_CLAIM,
+            truths,
+        },
+    )?;
+    Ok(failures)
+}
+
+/// What the `vs library` line says of start values the in-process filter does not take:
+/// nothing without any.
+fn fmu_only_note(fmu_only: &[String]) -> String {
+    if fmu_only.is_empty() {
+        return String::new();
+    }
+    format!(" (start values in the FMU only, not in-process: {}; a difference is theirs)", fmu_only.join(", "))
+}
+
+/// A case's figures before its runs: none yet.
+fn figures_of(case: Case) -> TruthFigures {
+    TruthFigures {
+        truth: case.truth,
+        manoeuvre: case.manoeuvre,
+        tuned_on: case.tuned_on(),
+        case: case.name,
+        failures: Vec::new(),
+        tables: Vec::new(),
+        filters: Vec::new(),
+    }
+}
+
+/// The first truth, our 6-DOF, through the case's manoeuvre: the flight measured once, then
+/// every filter through the FMU, checked against the same filter in-process; prints the
+/// tables and returns the number of failed runs and the tables' figures.
+fn six_dof(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)> {
+    let Given { settings, tuning, start_values, fmu, dir, .. } = *given;
+    let change_at = Manoeuvre::named(case.manoeuvre).map_err(anyhow::Error::msg)?.change_at;
+    let truth = simulate_named(case.manoeuvre, settings).map_err(anyhow::Error::msg)?;
+    let measurements = measure(&truth, settings.noise_scale, settings.seed);
+    if !case.tuned_on() {
+        println!("truth 1 through {}", case.manoeuvre_text());
+    }
+    let stem = dir.join(case.name);
+    let flown = Flown { truth: &truth, measurements: &measurements, manoeuvre: case.manoeuvre, case: case.name };
+    let mut failures = 0;
+    let (mut runs, mut logs) = (Vec::new(), Vec::new());
+    let mut figures = figures_of(case);
     for kind in FilterKind::ALL {
         let log = log_path(&stem, kind);
-        let through_fmu =
-            fmu_run::run(&fmu, kind, settings, &truth, &measurements, start_values, &log).and_then(|counts| {
-                let run = read_log(&log)?;
-                let coefficients = rows_of(run.channel(ESTIMATE)?, NAMES)?;
-                let library = run_filter(kind, &tuning, &truth, &measurements, settings.sample_time, &[])
-                    .map_err(anyhow::Error::msg)?;
-                let difference = largest_difference(&coefficients, &library.coefficients)?;
-                logs.push(run);
-                let checked = Some(Checked { difference, rejected: counts.rejected });
-                Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None })
-            });
+        let through_fmu = fmu_run::run(fmu, kind, settings, tuning, &flown, start_values, &log).and_then(|counts| {
+            let run = read_log(&log)?;
+            let coefficients = rows_of(run.channel(ESTIMATE)?, NAMES)?;
+            let library = run_filter(kind, tuning, &truth, &measurements, settings.sample_time, &[])
+                .map_err(anyhow::Error::msg)?;
+            let difference = largest_difference(&coefficients, &library.coefficients)?;
+            logs.push(run);
+            let checked = Some(Checked { difference, rejected: counts.rejected });
+            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None })
+        });
         match through_fmu {
             Ok(r) => runs.push(r),
             Err(e) => {
                 failures += 1;
                 println!("{kind}: FAILED: {e:#}");
-                run_failures.push(FilterFailure { filter: kind.name(), failure: format!("{e:#}") });
+                figures.failures.push(FilterFailure { filter: kind.name(), failure: format!("{e:#}") });
             }
         }
+    }
+    if runs.is_empty() {
+        return Ok((failures, figures));
     }
     let recording = match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
         Ok((comparison, recording)) => {
@@ -302,48 +482,39 @@ pub fn report(
             None
         }
     };
-    let before = (settings.sample_time.recip() * 10.0).round() as usize - 1;
-    let (tables, filters) = print_tables(&runs, &truth.time, before);
-    let first = TruthFigures { truth: "6dof", failures: run_failures, tables, filters };
+    let shown = Shown { case, change_at, sample_time: settings.sample_time, fmu_only: given.fmu_only };
+    (figures.tables, figures.filters) = print_tables(&runs, &truth.time, &shown);
     if let Some(recording) = recording {
         println!("comparison recording, every filter in one: {}", recording.display());
     }
-    let (jsbsim_failures, second) = jsbsim(settings, &fmu_dir.join(format!("{IDENTIFIER}.fmu")), &dir, python, before);
-    failures += jsbsim_failures;
-    write_table(
-        &dir,
-        &Table {
-            study: "S5",
-            settings: TableSettings {
-                seed: settings.seed,
-                sample_time: settings.sample_time,
-                noise_scale: settings.noise_scale,
-            },
-            units: units(&UNITS),
-            paper_claim: PAPER_CLAIM,
-            truths: vec![first, second],
-        },
-    )?;
-    Ok(failures)
+    Ok((failures, figures))
 }
 
 /// S5's second truth's driver, from the repository's root.
 const DRIVER: &str = "truth/s5_jsbsim/fly.py";
 
-/// The second truth: JSBSim through its Python driver, once per filter; prints the tables
-/// and returns the number of failed runs and the tables' figures.
-fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: usize) -> (usize, TruthFigures) {
+/// The second truth: JSBSim through its Python driver, once per filter, through the case's
+/// manoeuvre; prints the tables and returns the number of failed runs and the tables'
+/// figures.
+fn jsbsim(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)> {
+    let Given { settings, start_values, fmu_path, dir, python, .. } = *given;
+    let change_at = Manoeuvre::named(case.manoeuvre).map_err(anyhow::Error::msg)?.change_at;
     // The driver is found from where this crate was built: the repository's truth/.
     let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DRIVER);
     println!(
-        "truth 2: JSBSim (WGS84 rotating Earth, US 1976 atmosphere) flies the same manoeuvre; {DRIVER} steps the FMU \
-         through fmpy every {} s (seed {})",
-        settings.sample_time, settings.seed
+        "truth 2: JSBSim (WGS84 rotating Earth, US 1976 atmosphere) flies {}; {DRIVER} steps the FMU through fmpy \
+         every {} s (seed {})",
+        case.manoeuvre_text(),
+        settings.sample_time,
+        settings.seed
     );
-    let stem = dir.join("jsbsim");
+    // The user's start values after the study's own settings, over which they go, as the
+    // co-simulation master sets them.
+    let user: Vec<String> = start_values.iter().flat_map(|(n, v)| ["--set".to_string(), format!("{n}={v}")]).collect();
+    let stem = dir.join(case.name);
     let mut failures = 0;
     let (mut runs, mut logs) = (Vec::new(), Vec::new());
-    let mut figures = TruthFigures { truth: "jsbsim", failures: Vec::new(), tables: Vec::new(), filters: Vec::new() };
+    let mut figures = figures_of(case);
     let mut time = Vec::new();
     for kind in FilterKind::ALL {
         let log = log_path(&stem, kind);
@@ -351,10 +522,12 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
             .arg(&driver)
             .arg(&log)
             .arg("--fmu")
-            .arg(fmu)
+            .arg(fmu_path)
             .args(["--seed", &settings.seed.to_string()])
+            .args(["--manoeuvre", case.manoeuvre])
             .args(["--set", &format!("filter={}", filter_enumeration(kind))])
             .args(["--set", "ukf_alpha=1", "--set", "ukf_beta=2", "--set", "ukf_kappa=0"])
+            .args(&user)
             .output()
             .with_context(|| format!("cannot run {} (scripts/setup --tests installs it)", python.display()))
             .and_then(|output| {
@@ -384,7 +557,7 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
         }
     }
     if runs.is_empty() {
-        return (failures, figures);
+        return Ok((failures, figures));
     }
     // Compared before the tables are printed, which show the σ figures of the comparison.
     let compared =
@@ -392,7 +565,8 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
             attach_sigma(&mut runs, &comparison);
             recording
         });
-    (figures.tables, figures.filters) = print_tables(&runs, &time, before);
+    let shown = Shown { case, change_at, sample_time: settings.sample_time, fmu_only: given.fmu_only };
+    (figures.tables, figures.filters) = print_tables(&runs, &time, &shown);
     match compared {
         Ok(recording) => println!("comparison recording, every filter in one: {}", recording.display()),
         Err(e) => {
@@ -400,28 +574,42 @@ fn jsbsim(settings: &Settings, fmu: &Path, dir: &Path, python: &Path, before: us
             println!("FAILED to compare the JSBSim runs: {e}");
         }
     }
-    (failures, figures)
+    Ok((failures, figures))
+}
+
+/// What [`print_tables`] is told of the runs: their case, when the coefficients change,
+/// the sample time, and the start values the in-process filter does not take.
+struct Shown<'a> {
+    case: Case,
+    change_at: f64,
+    sample_time: f64,
+    fmu_only: &'a [String],
 }
 
 /// The paper's Tables 1 and 2 (each filter's relative error at the end of each half beside
-/// the paper's SVD-CKF), the time back within 3 % and 1 % after the change, and, for runs
-/// checked in-process, the gate's rejections and the difference from the library; returns
-/// the same figures, the tables and each filter's.
-fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<CoefficientTable>, Vec<FilterFigures>) {
+/// the paper's SVD-CKF; blank for a manoeuvre the paper does not fly), the time back within
+/// 3 % and 1 % after the change, and, for runs checked in-process, the gate's rejections
+/// and the difference from the library; returns the same figures, the tables and each
+/// filter's.
+fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<CoefficientTable>, Vec<FilterFigures>) {
     let end = time.len() - 1;
+    // The last sample under the first coefficients.
+    let before = (shown.change_at / shown.sample_time).round() as usize - 1;
     let relative_error = |estimate: f64, true_value: f64| 100.0 * (estimate / true_value - 1.0);
+    let published = shown.case.tuned_on();
     let mut tables = Vec::new();
-    for (table, title, k, paper) in [
-        ("Table 1", "Table 1, before the change (at 9.995 s)", before, PAPER_SVD_CKF_BEFORE),
-        ("Table 2", "Table 2, after the change (at 20 s)", end, PAPER_SVD_CKF_AFTER),
+    for (table, half, k, paper) in [
+        ("Table 1", "before the change", before, PAPER_SVD_CKF_BEFORE),
+        ("Table 2", "after the change", end, PAPER_SVD_CKF_AFTER),
     ] {
+        let paper = published.then_some(paper);
         let true_values = runs[0].truth[k];
         let coefficients = (0..10)
             .map(|i| CoefficientRow {
                 coefficient: NAMES[i],
                 true_value: true_values[i],
-                paper_svd_ckf: paper[i],
-                paper_svd_ckf_relative_error: relative_error(paper[i], true_values[i]),
+                paper_svd_ckf: paper.map(|p| p[i]),
+                paper_svd_ckf_relative_error: paper.map(|p| relative_error(p[i], true_values[i])),
                 relative_error: runs
                     .iter()
                     .map(|r| (r.kind.name(), relative_error(r.coefficients[k][i], true_values[i])))
@@ -429,6 +617,13 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
             })
             .collect();
         tables.push(CoefficientTable { table, time: time[k], coefficients });
+        // To the millisecond: a log's times are its nanoseconds over 1e9.
+        let at = (time[k] * 1e3).round() / 1e3;
+        let title = if published {
+            format!("{table}, {half} (at {at} s)")
+        } else {
+            format!("{}, {half} (at {at} s; {table}'s coefficients, no paper figures)", shown.case.manoeuvre)
+        };
         println!("{title}: relative error of each filter's estimate, %");
         let mut header = format!("{:<6} {:>8} {:>9} {:>7}", "coef", "true", "paper SVD", "err %");
         for r in runs {
@@ -436,13 +631,14 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
         }
         println!("{header}");
         for i in 0..10 {
-            let mut row = format!(
-                "{:<6} {:>8.4} {:>9.4} {:>+7.2}",
-                NAMES[i],
-                true_values[i],
-                paper[i],
-                relative_error(paper[i], true_values[i])
-            );
+            let mut row = format!("{:<6} {:>8.4}", NAMES[i], true_values[i]);
+            match paper {
+                Some(p) => {
+                    let _ = write!(row, " {:>9.4} {:>+7.2}", p[i], relative_error(p[i], true_values[i]));
+                }
+                // Blank, not zero: the paper has no estimate of this manoeuvre.
+                None => row.push_str(&" ".repeat(1 + 9 + 1 + 7)),
+            }
             for r in runs {
                 let _ = write!(row, " {:>+8.3}", relative_error(r.coefficients[k][i], true_values[i]));
             }
@@ -459,11 +655,11 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
         let within = |bound: f64| {
             (before + 1..=end)
                 .find(|&k| (k..=end).all(|j| (0..10).all(|i| (r.coefficients[j][i] / after[i] - 1.0).abs() <= bound)))
-                .map(|k| time[k] - 10.0)
+                .map(|k| time[k] - shown.change_at)
         };
         let (within_3, within_1) = (within(0.03), within(0.01));
-        let shown = |seconds: Option<f64>| seconds.map_or("never".to_string(), |s| format!("{s:.2}"));
-        let _ = write!(back, " {:>12}", format!("{}/{}", shown(within_3), shown(within_1)));
+        let text = |seconds: Option<f64>| seconds.map_or("never".to_string(), |s| format!("{s:.2}"));
+        let _ = write!(back, " {:>12}", format!("{}/{}", text(within_3), text(within_1)));
         if let Some(checked) = &r.checked {
             let _ = write!(rejected, " {:>12}", checked.rejected);
             let _ = write!(difference, " {:>12.1e}", checked.difference);
@@ -487,13 +683,14 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
     println!("after the change{}{names}", " ".repeat(10));
     println!("{back}");
     if runs.iter().all(|r| r.checked.is_some()) {
-        println!("{rejected}\n{difference}");
+        println!("{rejected}\n{difference}{}", fmu_only_note(shown.fmu_only));
     }
     if runs.iter().any(|r| r.sigma.is_some()) {
         println!(
-            "σ of the coefficients (analyzer, from {SETTLE} s on, the change at 10 s included): NEES mean/dof and the \
+            "σ of the coefficients (analyzer, from {SETTLE} s on, the change at {} s included): NEES mean/dof and the \
              share in its 95 % band; the lowest 1σ/2σ coverage (0.683/0.955 if honest); the worst (e/σ)² mean (1) \
-             with its reading, and how many read too narrow; Σ NIS / Σ rows used (1)"
+             with its reading, and how many read too narrow; Σ NIS / Σ rows used (1)",
+            shown.change_at
         );
         for r in runs {
             if let Some(sigma) = &r.sigma {
@@ -501,7 +698,9 @@ fn print_tables(runs: &[FilterRun], time: &[f64], before: usize) -> (Vec<Coeffic
             }
         }
     }
-    println!("paper: {PAPER_CLAIM}");
+    if published {
+        println!("paper: {PAPER_CLAIM}");
+    }
     (tables, filters)
 }
 

@@ -4,7 +4,9 @@
 //! (the manoeuvre flown five times, 100 s, the coefficients constant); a flight with no
 //! rudder input (the control derivatives unobservable). Every filter runs behind the
 //! supervisor with its defaults, as in the FMU; the noise seeds are spread over both
-//! cores (`--shard K/N`).
+//! cores (`--shard K/N`). `--set`/`--values` change every condition's tuning by the FMU's
+//! parameter names ([`Tuning::set`]): a value given replaces the condition's own (an
+//! `r_<measurement>_std` the `R` a condition tells the filter).
 
 use std::fmt::Write as _;
 
@@ -12,6 +14,7 @@ use estimator::{FilterKind, SupervisorSettings};
 
 use super::study::{run_supervised, Tuning};
 use crate::shard::{self, Shard};
+use start_values::StartValues;
 use truth::s5::flight::{flight, measure, simulate_flight, Settings};
 use truth::s5::manoeuvre::Manoeuvre;
 use truth::s5::parameters::{BEFORE, NAMES};
@@ -26,6 +29,10 @@ pub struct Args {
     /// Run only the runs K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
+    /// Every condition's tuning, by the FMU's parameter names, over the condition's; a name
+    /// the in-process filter does not take is an error.
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// A run's end: the worst coefficient, its relative error and its error over σ, and
@@ -83,27 +90,36 @@ impl Condition {
         }
     }
 
-    /// The sensors' noise scale and the tuning.
-    fn sensors_and_tuning(&self) -> (f64, Tuning) {
-        match self {
+    /// The sensors' noise scale and the tuning, with `start_values` over the condition's.
+    fn sensors_and_tuning(&self, start_values: &StartValues) -> Result<(f64, Tuning), String> {
+        let (scale, mut tuning) = match self {
             Condition::FineSensors => (1e-3, Tuning::new(1e-3)),
             Condition::OverconfidentR | Condition::OverconfidentRUngated => (1.0, Tuning::new(1e-3)),
             _ => (1.0, Tuning::new(1.0)),
-        }
+        };
+        tuning.set_all(start_values)?;
+        Ok((scale, tuning))
     }
 }
 
 /// Runs every condition with every filter kind and prints one table.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    // Before any flight is flown: a misspelt name costs no run.
+    let tunings: Vec<(f64, Tuning)> = Condition::ALL
+        .iter()
+        .map(|c| c.sensors_and_tuning(&start_values))
+        .collect::<Result<_, _>>()
+        .map_err(anyhow::Error::msg)?;
     let settings = Settings::default();
     let truths: Vec<_> = Condition::ALL.iter().map(|c| simulate_flight(&c.flight(), &settings)).collect();
     let jobs: Vec<(usize, FilterKind, u64)> = (0..Condition::ALL.len())
         .flat_map(|c| FilterKind::ALL.into_iter().flat_map(move |f| (1..=args.seeds).map(move |s| (c, f, s))))
         .collect();
     let results = shard::run(&jobs, args.shard, |&(c, filter, seed)| {
-        let (scale, tuning) = Condition::ALL[c].sensors_and_tuning();
+        let (scale, tuning) = &tunings[c];
         let truth = &truths[c];
-        let z = measure(truth, scale, seed);
+        let z = measure(truth, *scale, seed);
         let end = truth.time.len() - 1;
         let supervision = match Condition::ALL[c] {
             Condition::OverconfidentRUngated => {
@@ -111,7 +127,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
             _ => SupervisorSettings::default(),
         };
-        run_supervised(filter, &tuning, truth, &z, settings.sample_time, &[], supervision).map(|e| {
+        run_supervised(filter, tuning, truth, &z, settings.sample_time, &[], supervision).map(|e| {
             // The worst coefficient's relative error at the end, and its σ ratio.
             let (i, relative, sigmas) = (0..10)
                 .map(|i| {
@@ -128,6 +144,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "S5 robustness: every filter behind the supervisor, {} noise seeds per cell; at the end of the run",
         args.seeds
     );
+    if !start_values.is_empty() {
+        let _ = writeln!(out, "every condition's tuning with the start values {}", start_values.summary());
+    }
     let _ = writeln!(
         out,
         "{:<26} {:<8} {:>7} {:>28} {:>10} {:>8}",

@@ -2,6 +2,8 @@
 //! supervised loop, the coefficients scored against the truth before and after the change.
 
 use estimator::models::{Airframe, Missile6Dof};
+use estimator::UnscentedParams;
+use start_values::StartValues;
 use truth::s5::flight::Truth;
 use truth::s5::parameters::{start, BEFORE, SENSOR_STD};
 
@@ -32,7 +34,82 @@ pub struct Tuning {
     pub prior_mean: [f64; 20],
     /// The prior std.
     pub prior_std: [f64; 20],
+    /// The UKF's spread: α = 1, β = 2, κ = 0 in every study's runs (λ = 0: the cubature
+    /// rule's 2n points, and a centre point with no weight in the mean).
+    pub unscented: UnscentedParams,
+    /// RK4 steps of the filter's model per sample: 1.
+    pub rk4_substeps: usize,
 }
+
+/// The FMU's parameter of each sensor's noise, in the measurements' order
+/// ([`Missile6Dof::MEASUREMENT_NAMES`]: `r_<measurement>_std`).
+pub const SENSOR_NOISE_PARAMETERS: [&str; 12] = [
+    "r_omega_x_std",
+    "r_omega_y_std",
+    "r_omega_z_std",
+    "r_Nx_std",
+    "r_Ny_std",
+    "r_Nz_std",
+    "r_phi_std",
+    "r_psi_std",
+    "r_gamma_std",
+    "r_h_std",
+    "r_alpha_std",
+    "r_beta_std",
+];
+
+/// The FMU's parameter of each state's prior mean, in the state's order
+/// ([`Missile6Dof::STATE_NAMES`]: `prior_<state>`).
+pub const PRIOR_PARAMETERS: [&str; 20] = [
+    "prior_Vx",
+    "prior_Vy",
+    "prior_Vz",
+    "prior_phi",
+    "prior_psi",
+    "prior_gamma",
+    "prior_h",
+    "prior_omega_x",
+    "prior_omega_y",
+    "prior_omega_z",
+    "prior_Cx0",
+    "prior_Cx_a",
+    "prior_Cx_b",
+    "prior_Cx_d",
+    "prior_Cy0",
+    "prior_Cy_a",
+    "prior_Cy_d",
+    "prior_Cz0",
+    "prior_Cz_b",
+    "prior_Cz_d",
+];
+
+/// The FMU's parameter of each state's prior std (`prior_<state>_std`).
+pub const PRIOR_STD_PARAMETERS: [&str; 20] = [
+    "prior_Vx_std",
+    "prior_Vy_std",
+    "prior_Vz_std",
+    "prior_phi_std",
+    "prior_psi_std",
+    "prior_gamma_std",
+    "prior_h_std",
+    "prior_omega_x_std",
+    "prior_omega_y_std",
+    "prior_omega_z_std",
+    "prior_Cx0_std",
+    "prior_Cx_a_std",
+    "prior_Cx_b_std",
+    "prior_Cx_d_std",
+    "prior_Cy0_std",
+    "prior_Cy_a_std",
+    "prior_Cy_d_std",
+    "prior_Cz0_std",
+    "prior_Cz_b_std",
+    "prior_Cz_d_std",
+];
+
+/// The FMU's parameters of the motion states' process noise, in [`Tuning::motion_std`]'s
+/// order.
+pub const MOTION_NOISE_PARAMETERS: [&str; 4] = ["q_velocity_std", "q_angle_std", "q_altitude_std", "q_rate_std"];
 
 impl Tuning {
     /// The study's set-up for sensors of noise `SENSOR_STD × noise_scale`.
@@ -51,7 +128,98 @@ impl Tuning {
             sensor_std: SENSOR_STD.map(|s| s * noise_scale),
             prior_mean,
             prior_std,
+            unscented: UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 },
+            rk4_substeps: 1,
         }
+    }
+
+    /// Whether [`Tuning::set`] takes `name`: every FMU parameter `fmu_run::parameters` and
+    /// `fmu_run::integers` write from a tuning (the flight's `sample_time` aside).
+    pub fn takes(name: &str) -> bool {
+        SENSOR_NOISE_PARAMETERS.contains(&name)
+            || PRIOR_PARAMETERS.contains(&name)
+            || PRIOR_STD_PARAMETERS.contains(&name)
+            || MOTION_NOISE_PARAMETERS.contains(&name)
+            || ["q_coefficient_relative_std", "ukf_alpha", "ukf_beta", "ukf_kappa", "rk4_substeps"].contains(&name)
+    }
+
+    /// Sets the FMU parameter `name` to `value` as the in-process filter has it, so that
+    /// `fmu_run::parameters` (or `fmu_run::integers`) then writes `value` for it. An error
+    /// names what is wrong: a name the tuning does not have (the airframe's, the
+    /// supervisor's, `filter`, `sample_time`, … are the FMU's only), or a value the FMU
+    /// would refuse too (not finite, a negative σ, a number of RK4 steps that is not a
+    /// positive integer).
+    pub fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+        if name == "sample_time" {
+            return Err("sample_time is the flight's sample time (its measurements' clock), not a tuning".into());
+        }
+        if !Self::takes(name) {
+            return Err(format!(
+                "'{name}' is not a parameter the in-process S5 filter takes (it takes r_<measurement>_std, \
+                 prior_<state>, prior_<state>_std, {}, q_coefficient_relative_std, ukf_alpha, ukf_beta, ukf_kappa, \
+                 rk4_substeps)",
+                MOTION_NOISE_PARAMETERS.join(", ")
+            ));
+        }
+        if !value.is_finite() {
+            return Err(format!("{name} = {value}: not a finite number"));
+        }
+        let index = |names: &[&str]| names.iter().position(|&n| n == name);
+        if let Some(i) = index(&PRIOR_PARAMETERS) {
+            self.prior_mean[i] = value;
+            return Ok(());
+        }
+        match name {
+            "ukf_alpha" => self.unscented.alpha = value,
+            "ukf_beta" => self.unscented.beta = value,
+            "ukf_kappa" => self.unscented.kappa = value,
+            "rk4_substeps" => {
+                if value < 1.0 || value.fract() != 0.0 || value > u32::MAX as f64 {
+                    return Err(format!("rk4_substeps = {value}: not a positive integer"));
+                }
+                self.rk4_substeps = value as usize;
+            }
+            _ => {
+                if value < 0.0 {
+                    return Err(format!("{name} = {value}: a σ is not negative"));
+                }
+                let slot = if let Some(i) = index(&SENSOR_NOISE_PARAMETERS) {
+                    &mut self.sensor_std[i]
+                } else if let Some(i) = index(&PRIOR_STD_PARAMETERS) {
+                    &mut self.prior_std[i]
+                } else if let Some(i) = index(&MOTION_NOISE_PARAMETERS) {
+                    &mut self.motion_std[i]
+                } else {
+                    &mut self.coefficient_relative_std
+                };
+                *slot = value;
+            }
+        }
+        Ok(())
+    }
+
+    /// Every start value of `values` set on this tuning; returns the names it does not
+    /// take ([`Tuning::takes`]), which only an FMU run can be given. A value of a name it
+    /// takes that [`Tuning::set`] refuses is an error.
+    pub fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String> {
+        let mut fmu_only = Vec::new();
+        for (name, value) in values.iter() {
+            if Self::takes(name) {
+                self.set(name, value).map_err(|e| format!("start value {e}"))?;
+            } else {
+                fmu_only.push(name.to_string());
+            }
+        }
+        Ok(fmu_only)
+    }
+
+    /// Every start value of `values` set on this tuning, an in-process run's: a name it
+    /// does not take is an error.
+    pub fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
+        for (name, value) in values.iter() {
+            self.set(name, value).map_err(|e| format!("start value {e}"))?;
+        }
+        Ok(())
     }
 
     /// `Q` and `R` in the state order of [`Missile6Dof`].
@@ -113,9 +281,9 @@ pub fn run_supervised(
     checkpoints: &[usize],
     supervision: estimator::SupervisorSettings,
 ) -> Result<Estimates, String> {
-    let model = estimator::Discretized::rk4(Missile6Dof { airframe: Airframe::tactical_missile() }, 1);
-    let unscented = estimator::UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
-    let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(), unscented)
+    let model =
+        estimator::Discretized::rk4(Missile6Dof { airframe: Airframe::tactical_missile() }, tuning.rk4_substeps);
+    let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(), tuning.unscented)
         .map_err(|e| format!("setup: {e}"))?;
     let unknown_inputs = &estimator::models::Missile6Dof::UNKNOWN_INPUTS;
     let supervisor = estimator::Supervisor::new(supervision, 12)

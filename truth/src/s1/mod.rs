@@ -132,6 +132,37 @@ impl Case {
     }
 }
 
+/// `chain` under the names of the S1 estimator FMU's parameters (`kalfmu_s1_load`): the
+/// masses, the ground link's spring and damper as three slopes and two breakpoints each,
+/// the coupling. One list for the study's FMU runs and for the logs the tuning tests
+/// simulate, which may not depend on the study.
+pub fn chain_parameters(chain: &Oscillator2Dof) -> [(&'static str, f64); 14] {
+    let (k, c) = (chain.k1, chain.c1);
+    let (ks, kb) = (k.slopes(), k.breaks());
+    let (cs, cb) = (c.slopes(), c.breaks());
+    // A linear element is a law of three equal slopes whose breakpoints are not finite;
+    // they are then irrelevant, and the FMU's defaults stand in for them (the FMU takes
+    // only positive breakpoints).
+    let breaks = |b: [f64; 2], default: [f64; 2]| if b[0].is_finite() { b } else { default };
+    let (kb, cb) = (breaks(kb, [0.1, 0.2]), breaks(cb, [0.05, 0.1]));
+    [
+        ("m1", chain.m1),
+        ("m2", chain.m2),
+        ("k11", ks[0]),
+        ("k12", ks[1]),
+        ("k13", ks[2]),
+        ("delta1", kb[0]),
+        ("delta2", kb[1]),
+        ("c11", cs[0]),
+        ("c12", cs[1]),
+        ("c13", cs[2]),
+        ("eps1", cb[0]),
+        ("eps2", cb[1]),
+        ("k2", chain.k2),
+        ("c2", chain.c2),
+    ]
+}
+
 impl fmt::Display for Case {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let n = match self.nonlinearity {

@@ -79,6 +79,29 @@ impl Vehicle {
         let (lc, lt) = (self.half_bogie_spacing, self.half_wheelbase);
         [lc + lt, lc - lt, -lc + lt, -lc - lt]
     }
+
+    /// The vehicle under the names of the S2 estimator FMU's parameters
+    /// (`kalfmu_s2_wheel_rail`), as a user sets their catalogue car in it; the static wheel
+    /// load, which the user weighs rather than computes, is not among them. One list for
+    /// the study's FMU runs and for the logs the tuning tests simulate, which may not
+    /// depend on the study.
+    pub fn fmu_parameters(&self) -> [(&'static str, f64); 13] {
+        [
+            ("car_body_mass", self.car_body_mass),
+            ("car_body_pitch_inertia", self.car_body_pitch_inertia),
+            ("bogie_mass", self.bogie_mass),
+            ("bogie_pitch_inertia", self.bogie_pitch_inertia),
+            ("wheelset_mass", self.wheelset_mass),
+            ("primary_stiffness", self.primary_stiffness),
+            ("primary_damping", self.primary_damping),
+            ("primary_damping_beyond", self.primary_damping_beyond),
+            ("primary_damper_knee", self.primary_damper_knee),
+            ("secondary_stiffness", self.secondary_stiffness),
+            ("secondary_damping", self.secondary_damping),
+            ("half_bogie_spacing", self.half_bogie_spacing),
+            ("half_wheelbase", self.half_wheelbase),
+        ]
+    }
 }
 
 /// One rail of a ballasted track.

@@ -77,29 +77,12 @@ pub fn write_s1(path: &Path, seconds: f64, seed: u64, noise_fraction: f64) -> Re
     let case = Case::ALL[0];
     let settings = Settings { duration: seconds, seed, noise_fraction, ..Settings::default() };
     let (truth, measurements) = simulate(&case, &settings);
-    let chain = case.chain();
     let dt = settings.dt();
     // The study's tuning (studies/src/s1/mod.rs, Tuning::new): a 10 N, 10 Hz load.
     let load_intensity = 10.0_f64.powi(2) * (std::f64::consts::TAU * 10.0).powi(4) / 5.0 * dt;
-    let (ks, kb, cs, cb) = (chain.k1.slopes(), chain.k1.breaks(), chain.c1.slopes(), chain.c1.breaks());
-    // A linear element is a law of three equal slopes; its breakpoints are then irrelevant.
-    let breaks = |b: [f64; 2], default: [f64; 2]| if b[0].is_finite() { b } else { default };
-    let (kb, cb) = (breaks(kb, [0.1, 0.2]), breaks(cb, [0.05, 0.1]));
-    let parameters = [
-        ("m1", chain.m1),
-        ("m2", chain.m2),
-        ("k11", ks[0]),
-        ("k12", ks[1]),
-        ("k13", ks[2]),
-        ("delta1", kb[0]),
-        ("delta2", kb[1]),
-        ("c11", cs[0]),
-        ("c12", cs[1]),
-        ("c13", cs[2]),
-        ("eps1", cb[0]),
-        ("eps2", cb[1]),
-        ("k2", chain.k2),
-        ("c2", chain.c2),
+    // The chain under the FMU's names, as the study writes them (truth::s1::chain_parameters).
+    let mut parameters = truth::s1::chain_parameters(&case.chain()).to_vec();
+    parameters.extend([
         ("sample_time", dt),
         ("ukf_alpha", 1.0),
         ("ukf_beta", 2.0),
@@ -109,7 +92,7 @@ pub fn write_s1(path: &Path, seconds: f64, seed: u64, noise_fraction: f64) -> Re
         ("load_noise_intensity", load_intensity),
         ("r_z1_ddot_std", measurements.noise_std[0]),
         ("r_z2_ddot_std", measurements.noise_std[1]),
-    ];
+    ]);
     write(
         path,
         "kalfmu_s1_load",
@@ -132,22 +115,11 @@ pub fn write_s2(path: &Path, seconds: f64, seed: u64, noise_fraction: f64) -> Re
     settings.validate()?;
     let truth = simulate(Case::Random, &settings);
     let measurements = measure(&truth, settings.noise_fraction, settings.seed);
-    let v = Vehicle::ZHAI_PASSENGER;
     let dt = 1.0 / settings.rate;
-    let mut parameters = vec![
-        ("car_body_mass", v.car_body_mass),
-        ("car_body_pitch_inertia", v.car_body_pitch_inertia),
-        ("bogie_mass", v.bogie_mass),
-        ("bogie_pitch_inertia", v.bogie_pitch_inertia),
-        ("wheelset_mass", v.wheelset_mass),
-        ("primary_stiffness", v.primary_stiffness),
-        ("primary_damping", v.primary_damping),
-        ("primary_damping_beyond", v.primary_damping_beyond),
-        ("primary_damper_knee", v.primary_damper_knee),
-        ("secondary_stiffness", v.secondary_stiffness),
-        ("secondary_damping", v.secondary_damping),
-        ("half_bogie_spacing", v.half_bogie_spacing),
-        ("half_wheelbase", v.half_wheelbase),
+    // The user's catalogue car under the FMU's names, as the study writes them
+    // (truth::s2::parameters::Vehicle::fmu_parameters), and the weighed wheel load.
+    let mut parameters = Vehicle::ZHAI_PASSENGER.fmu_parameters().to_vec();
+    parameters.extend([
         ("static_wheel_load", as_built().static_wheel_load()),
         ("sample_time", dt),
         ("p0_motion_std", 0.1),
@@ -159,7 +131,7 @@ pub fn write_s2(path: &Path, seconds: f64, seed: u64, noise_fraction: f64) -> Re
         ("ukf_alpha", 1.0),
         ("ukf_beta", 2.0),
         ("ukf_kappa", 0.0),
-    ];
+    ]);
     let sensors = ["r_z_c_ddot_std", "r_z_t1_ddot_std", "r_z_t2_ddot_std", "r_z_w1_ddot_std"];
     let sensors = sensors.into_iter().chain(["r_z_w2_ddot_std", "r_z_w3_ddot_std", "r_z_w4_ddot_std"]);
     parameters.extend(sensors.zip(measurements.noise_std));
