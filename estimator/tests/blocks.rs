@@ -1,7 +1,9 @@
 //! The batched model calls give the point-by-point numbers bit for bit, so a
 //! filter's result does not depend on whether a model overrides them.
 
-use estimator::models::{Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical};
+use estimator::models::{
+    Oscillator2Dof, Oscillator2DofLoad, RollVehicle, VerticalVehicle, WheelRailRoll, WheelRailVertical,
+};
 use estimator::{Component, Discretized, Observation, Process, VectorField, BLOCK_POINTS};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -48,6 +50,14 @@ fn the_wheel_rail_model_s_block_rk4_equals_its_point_rk4_bit_for_bit() {
 fn the_s1_model_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
     for chain in [Oscillator2Dof::stiffness_nonlinear(), Oscillator2Dof::damping_nonlinear()] {
         assert_block_equals_pointwise(Discretized::rk4(Oscillator2DofLoad::new(chain), 2), "S1 model");
+    }
+}
+
+#[test]
+fn the_s3_model_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
+    for force_return_rate in [0.0, 2.0] {
+        let model = WheelRailRoll { vehicle: RollVehicle::zhai_passenger(), force_return_rate };
+        assert_block_equals_pointwise(Discretized::rk4(model, 1), "S3 model");
     }
 }
 
