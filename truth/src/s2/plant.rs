@@ -17,6 +17,27 @@ use super::vehicle::{wheelset, VehicleModel, DOFS};
 const PSI: f64 = 0.5;
 const PHI: f64 = 0.5;
 
+/// One step of Zhai's explicit two-step method `[Zhai1996]` over `dt`: the displacements
+/// `u` and velocities `v` move on from the accelerations now, `a`, and those of the step
+/// before, `previous`; without them (the first step, or after a restart) a plain Taylor
+/// step.
+pub fn zhai_step(u: &mut [f64], v: &mut [f64], a: &[f64], previous: Option<&[f64]>, dt: f64) {
+    match previous {
+        None => {
+            for k in 0..u.len() {
+                u[k] += v[k] * dt + 0.5 * a[k] * dt * dt;
+                v[k] += a[k] * dt;
+            }
+        }
+        Some(previous) => {
+            for k in 0..u.len() {
+                u[k] += v[k] * dt + ((0.5 + PSI) * a[k] - PSI * previous[k]) * dt * dt;
+                v[k] += ((1.0 + PHI) * a[k] - PHI * previous[k]) * dt;
+            }
+        }
+    }
+}
+
 /// How to simulate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -186,27 +207,12 @@ impl Simulation {
 
     /// One integration step of Δt.
     pub fn step(&mut self) {
-        let dt = self.dt;
-        let (u, v, a) = (&mut self.u, &mut self.v, &self.a);
-        match &self.a_previous {
-            None => {
-                for k in 0..u.len() {
-                    u[k] += v[k] * dt + 0.5 * a[k] * dt * dt;
-                    v[k] += a[k] * dt;
-                }
-            }
-            Some(previous) => {
-                for k in 0..u.len() {
-                    u[k] += v[k] * dt + ((0.5 + PSI) * a[k] - PSI * previous[k]) * dt * dt;
-                    v[k] += ((1.0 + PHI) * a[k] - PHI * previous[k]) * dt;
-                }
-            }
-        }
+        zhai_step(&mut self.u, &mut self.v, &self.a, self.a_previous.as_deref(), self.dt);
         match &mut self.a_previous {
             Some(previous) => previous.copy_from_slice(&self.a),
             None => self.a_previous = Some(self.a.clone()),
         }
-        self.time += dt;
+        self.time += self.dt;
         // The window follows the car body: one spacing on whenever the body has gone one on.
         let spacing = self.track.track.sleeper_spacing;
         while self.speed * self.time - (self.origin + self.track.length / 2.0) >= spacing {
