@@ -7,6 +7,7 @@
 pub mod comparison;
 pub mod s1;
 pub mod s2;
+pub mod s3;
 pub mod s4;
 pub mod s5;
 pub use shard;
