@@ -100,3 +100,44 @@ impl StartValues {
             .join(" ")
     }
 }
+
+/// A filter set-up whose parameters are set by the FMU's names: what an in-process run
+/// takes of the start values a user gives, so that a value reaches the in-process filter as
+/// it reaches the FMU.
+pub trait SetByName {
+    /// Whether [`SetByName::set`] takes `name`.
+    fn takes(name: &str) -> bool
+    where
+        Self: Sized;
+
+    /// Sets the parameter `name` to `value`. An error names what is wrong (a name it does
+    /// not take, or a value the FMU would refuse too) and changes nothing.
+    fn set(&mut self, name: &str, value: f64) -> Result<(), String>;
+
+    /// Every start value of `values` it takes; returns the names it does not take, which
+    /// only an FMU run can be given. A value of a name it takes that [`SetByName::set`]
+    /// refuses is an error.
+    fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String>
+    where
+        Self: Sized,
+    {
+        let mut fmu_only = Vec::new();
+        for (name, value) in values.iter() {
+            if Self::takes(name) {
+                self.set(name, value).map_err(|e| format!("start value {e}"))?;
+            } else {
+                fmu_only.push(name.to_string());
+            }
+        }
+        Ok(fmu_only)
+    }
+
+    /// Every start value of `values`, an in-process run's: a name it does not take is an
+    /// error.
+    fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
+        for (name, value) in values.iter() {
+            self.set(name, value).map_err(|e| format!("start value {e}"))?;
+        }
+        Ok(())
+    }
+}

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use estimator::FilterKind;
 use start_values::ssv::{self, Parameter, ParameterSet};
-use start_values::{Assignment, Options, StartValues};
+use start_values::{Assignment, Options, SetByName, StartValues};
 use studies::s1::{self, Tuning};
 use truth::s1::{Case, Settings};
 

@@ -8,7 +8,7 @@
 use std::fmt::Write as _;
 
 use estimator::{FilterKind, SupervisorSettings};
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 
 use crate::s1::faults::{inject, run_with, Fault};
 use crate::s1::Tuning;

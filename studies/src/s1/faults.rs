@@ -28,7 +28,7 @@ use analyzer::metrics::correlation;
 use estimator::models::Oscillator2DofLoad;
 use estimator::{FilterKind, RowOutcome, Sample, SupervisedFilter, Supervisor, SupervisorSettings};
 
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 
 use super::Tuning;
 use truth::s1::load::Step;

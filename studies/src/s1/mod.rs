@@ -21,7 +21,7 @@ pub mod sweep;
 use estimator::models::Oscillator2DofLoad;
 use estimator::{build_filter, Discretized, FilterError, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};
 use nalgebra::DMatrix;
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 use truth::s1::plant::Truth;
 use truth::s1::{Case, LoadKind, Measurements, Nonlinearity, Settings};
 
@@ -166,92 +166,6 @@ impl Tuning {
         }
     }
 
-    /// Whether [`Tuning::set`] takes `name`: every FMU parameter a tuning writes.
-    pub fn takes(name: &str) -> bool {
-        Self::NAMES.contains(&name)
-    }
-
-    /// Sets the FMU parameter `name` to `value` as the in-process filter has it, so that
-    /// [`Tuning::fmu_parameters`] (or [`Tuning::fmu_integers`]) then writes `value` for
-    /// it. An error names what is wrong: a name the tuning does not have (the chain's, the
-    /// supervisor's, `filter`, `sample_time`, … are the FMU's only: the in-process runs
-    /// take the chain from the case and the supervisor from their command), or a value the
-    /// FMU would refuse too (not finite, a negative σ or intensity, a number of RK4 steps
-    /// that is not a positive integer).
-    pub fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
-        if name == "sample_time" {
-            return Err("sample_time is the measurements' clock (the study's rate), not a tuning".into());
-        }
-        if !Self::takes(name) {
-            return Err(format!(
-                "'{name}' is not a parameter the in-process S1 filter takes (it takes {})",
-                Self::NAMES.join(", ")
-            ));
-        }
-        if !value.is_finite() {
-            return Err(format!("{name} = {value}: not a finite number"));
-        }
-        let index = |names: &[&str]| names.iter().position(|&n| n == name);
-        if let Some(i) = index(&PRIOR_MEAN_PARAMETERS) {
-            self.prior_mean[i] = value;
-            return Ok(());
-        }
-        match name {
-            "ukf_alpha" => self.unscented.alpha = value,
-            "ukf_beta" => self.unscented.beta = value,
-            "ukf_kappa" => self.unscented.kappa = value,
-            "rk4_substeps" => {
-                // The FMU's bounds of the integer parameter.
-                if !(1.0..=1000.0).contains(&value) || value.fract() != 0.0 {
-                    return Err(format!("rk4_substeps = {value}: not an integer from 1 to 1000"));
-                }
-                self.rk4_substeps = value as usize;
-            }
-            _ => {
-                if value < 0.0 {
-                    return Err(format!("{name} = {value}: a σ or an intensity is not negative"));
-                }
-                let slot = if let Some(i) = index(&PRIOR_STD_PARAMETERS) {
-                    &mut self.prior_std[i]
-                } else if let Some(i) = index(&SENSOR_NOISE_PARAMETERS) {
-                    &mut self.sensor_std[i]
-                } else {
-                    match name {
-                        "q_z_std" => &mut self.position_std,
-                        "q_z_dot_std" => &mut self.velocity_std,
-                        _ => &mut self.load_intensity,
-                    }
-                };
-                *slot = value;
-            }
-        }
-        Ok(())
-    }
-
-    /// Every start value of `values` set on this tuning; returns the names it does not
-    /// take ([`Tuning::takes`]), which only an FMU run can be given. A value of a name it
-    /// takes that [`Tuning::set`] refuses is an error.
-    pub fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String> {
-        let mut fmu_only = Vec::new();
-        for (name, value) in values.iter() {
-            if Self::takes(name) {
-                self.set(name, value).map_err(|e| format!("start value {e}"))?;
-            } else {
-                fmu_only.push(name.to_string());
-            }
-        }
-        Ok(fmu_only)
-    }
-
-    /// Every start value of `values` set on this tuning, an in-process run's: a name it
-    /// does not take is an error.
-    pub fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
-        for (name, value) in values.iter() {
-            self.set(name, value).map_err(|e| format!("start value {e}"))?;
-        }
-        Ok(())
-    }
-
     /// `Q` and `R` for the library's filters.
     pub fn noise(&self) -> Noise {
         let (dt, q_load) = (self.dt, self.load_intensity);
@@ -303,6 +217,70 @@ impl Tuning {
     /// … and its Integer parameters.
     pub fn fmu_integers(&self) -> Vec<(&'static str, i32)> {
         vec![("rk4_substeps", self.rk4_substeps as i32)]
+    }
+}
+
+impl SetByName for Tuning {
+    /// Whether [`Tuning::set`] takes `name`: every FMU parameter a tuning writes.
+    fn takes(name: &str) -> bool {
+        Self::NAMES.contains(&name)
+    }
+
+    /// Sets the FMU parameter `name` to `value` as the in-process filter has it, so that
+    /// [`Tuning::fmu_parameters`] (or [`Tuning::fmu_integers`]) then writes `value` for
+    /// it. An error names what is wrong: a name the tuning does not have (the chain's, the
+    /// supervisor's, `filter`, `sample_time`, … are the FMU's only: the in-process runs
+    /// take the chain from the case and the supervisor from their command), or a value the
+    /// FMU would refuse too (not finite, a negative σ or intensity, a number of RK4 steps
+    /// that is not a positive integer).
+    fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+        if name == "sample_time" {
+            return Err("sample_time is the measurements' clock (the study's rate), not a tuning".into());
+        }
+        if !Self::takes(name) {
+            return Err(format!(
+                "'{name}' is not a parameter the in-process S1 filter takes (it takes {})",
+                Self::NAMES.join(", ")
+            ));
+        }
+        if !value.is_finite() {
+            return Err(format!("{name} = {value}: not a finite number"));
+        }
+        let index = |names: &[&str]| names.iter().position(|&n| n == name);
+        if let Some(i) = index(&PRIOR_MEAN_PARAMETERS) {
+            self.prior_mean[i] = value;
+            return Ok(());
+        }
+        match name {
+            "ukf_alpha" => self.unscented.alpha = value,
+            "ukf_beta" => self.unscented.beta = value,
+            "ukf_kappa" => self.unscented.kappa = value,
+            "rk4_substeps" => {
+                // The FMU's bounds of the integer parameter.
+                if !(1.0..=1000.0).contains(&value) || value.fract() != 0.0 {
+                    return Err(format!("rk4_substeps = {value}: not an integer from 1 to 1000"));
+                }
+                self.rk4_substeps = value as usize;
+            }
+            _ => {
+                if value < 0.0 {
+                    return Err(format!("{name} = {value}: a σ or an intensity is not negative"));
+                }
+                let slot = if let Some(i) = index(&PRIOR_STD_PARAMETERS) {
+                    &mut self.prior_std[i]
+                } else if let Some(i) = index(&SENSOR_NOISE_PARAMETERS) {
+                    &mut self.sensor_std[i]
+                } else {
+                    match name {
+                        "q_z_std" => &mut self.position_std,
+                        "q_z_dot_std" => &mut self.velocity_std,
+                        _ => &mut self.load_intensity,
+                    }
+                };
+                *slot = value;
+            }
+        }
+        Ok(())
     }
 }
 

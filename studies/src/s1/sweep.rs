@@ -7,7 +7,7 @@
 use std::fmt::Write as _;
 
 use estimator::FilterKind;
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 
 use crate::s1::{self};
 use crate::shard::{self, Shard};

@@ -39,7 +39,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 
 use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{analyse, Options, PairReport};

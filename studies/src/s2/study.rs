@@ -6,7 +6,7 @@
 //! contact.
 
 use estimator::models::{PiecewiseLinear, VerticalVehicle};
-use start_values::StartValues;
+use start_values::SetByName;
 use truth::s2::cases::{Measurements, Settings, Truth};
 use truth::s2::parameters::Vehicle;
 
@@ -135,86 +135,6 @@ impl Tuning {
         }
     }
 
-    /// Whether [`Tuning::set`] takes `name`.
-    pub fn takes(name: &str) -> bool {
-        Self::NAMES.contains(&name)
-    }
-
-    /// Sets the FMU parameter `name` to `value` as the in-process filter has it, so that
-    /// [`Tuning::fmu_parameters`] (or [`Tuning::fmu_integers`]) then writes `value` for
-    /// it. An error names what is wrong: a name the tuning does not have (the vehicle's,
-    /// the static wheel load, the supervisor's, `filter`, `sample_time`, … are the FMU's
-    /// only), or a value the FMU would refuse too (not finite, a negative σ or intensity,
-    /// a number of RK4 steps that is not an integer from 1 to 1000).
-    pub fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
-        if name == "sample_time" {
-            return Err("sample_time is the measurements' clock (the study's rate), not a tuning".into());
-        }
-        if !Self::takes(name) {
-            return Err(format!(
-                "'{name}' is not a parameter the in-process S2 filter takes (it takes {})",
-                Self::NAMES.join(", ")
-            ));
-        }
-        if !value.is_finite() {
-            return Err(format!("{name} = {value}: not a finite number"));
-        }
-        match name {
-            "ukf_alpha" => self.unscented.alpha = value,
-            "ukf_beta" => self.unscented.beta = value,
-            "ukf_kappa" => self.unscented.kappa = value,
-            "rk4_substeps" => {
-                // The FMU's bounds of the integer parameter.
-                if !(1.0..=1000.0).contains(&value) || value.fract() != 0.0 {
-                    return Err(format!("rk4_substeps = {value}: not an integer from 1 to 1000"));
-                }
-                self.rk4_substeps = value as usize;
-            }
-            _ => {
-                if value < 0.0 {
-                    return Err(format!("{name} = {value}: a σ or an intensity is not negative"));
-                }
-                let slot = match name {
-                    "p0_motion_std" => &mut self.prior_motion_std,
-                    "p0_force_std" => &mut self.prior_force_std,
-                    "q_body_std" => &mut self.body_std,
-                    "q_wheelset_std" => &mut self.wheelset_std,
-                    "force_noise_intensity" => &mut self.force_intensity,
-                    _ => {
-                        let i = SENSOR_NOISE_PARAMETERS.iter().position(|&n| n == name);
-                        &mut self.sensor_std[i.expect("every other name a tuning takes is a sensor's")]
-                    }
-                };
-                *slot = value;
-            }
-        }
-        Ok(())
-    }
-
-    /// Every start value of `values` set on this tuning; returns the names it does not
-    /// take ([`Tuning::takes`]), which only an FMU run can be given. A value of a name it
-    /// takes that [`Tuning::set`] refuses is an error.
-    pub fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String> {
-        let mut fmu_only = Vec::new();
-        for (name, value) in values.iter() {
-            if Self::takes(name) {
-                self.set(name, value).map_err(|e| format!("start value {e}"))?;
-            } else {
-                fmu_only.push(name.to_string());
-            }
-        }
-        Ok(fmu_only)
-    }
-
-    /// Every start value of `values` set on this tuning, an in-process run's: a name it
-    /// does not take is an error.
-    pub fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
-        for (name, value) in values.iter() {
-            self.set(name, value).map_err(|e| format!("start value {e}"))?;
-        }
-        Ok(())
-    }
-
     /// The same set-up as the estimator FMU's Real parameters (the sample time aside: it
     /// is the measurements' clock).
     pub fn fmu_parameters(&self) -> Vec<(&'static str, f64)> {
@@ -259,6 +179,64 @@ impl Tuning {
         let mut variances = [self.prior_motion_std * self.prior_motion_std; 24];
         variances[WheelRailVertical::FORCES..].fill(self.prior_force_std * self.prior_force_std);
         estimator::Gaussian::diagonal(&mean, &variances)
+    }
+}
+
+impl SetByName for Tuning {
+    /// Whether [`Tuning::set`] takes `name`.
+    fn takes(name: &str) -> bool {
+        Self::NAMES.contains(&name)
+    }
+
+    /// Sets the FMU parameter `name` to `value` as the in-process filter has it, so that
+    /// [`Tuning::fmu_parameters`] (or [`Tuning::fmu_integers`]) then writes `value` for
+    /// it. An error names what is wrong: a name the tuning does not have (the vehicle's,
+    /// the static wheel load, the supervisor's, `filter`, `sample_time`, … are the FMU's
+    /// only), or a value the FMU would refuse too (not finite, a negative σ or intensity,
+    /// a number of RK4 steps that is not an integer from 1 to 1000).
+    fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+        if name == "sample_time" {
+            return Err("sample_time is the measurements' clock (the study's rate), not a tuning".into());
+        }
+        if !Self::takes(name) {
+            return Err(format!(
+                "'{name}' is not a parameter the in-process S2 filter takes (it takes {})",
+                Self::NAMES.join(", ")
+            ));
+        }
+        if !value.is_finite() {
+            return Err(format!("{name} = {value}: not a finite number"));
+        }
+        match name {
+            "ukf_alpha" => self.unscented.alpha = value,
+            "ukf_beta" => self.unscented.beta = value,
+            "ukf_kappa" => self.unscented.kappa = value,
+            "rk4_substeps" => {
+                // The FMU's bounds of the integer parameter.
+                if !(1.0..=1000.0).contains(&value) || value.fract() != 0.0 {
+                    return Err(format!("rk4_substeps = {value}: not an integer from 1 to 1000"));
+                }
+                self.rk4_substeps = value as usize;
+            }
+            _ => {
+                if value < 0.0 {
+                    return Err(format!("{name} = {value}: a σ or an intensity is not negative"));
+                }
+                let slot = match name {
+                    "p0_motion_std" => &mut self.prior_motion_std,
+                    "p0_force_std" => &mut self.prior_force_std,
+                    "q_body_std" => &mut self.body_std,
+                    "q_wheelset_std" => &mut self.wheelset_std,
+                    "force_noise_intensity" => &mut self.force_intensity,
+                    _ => {
+                        let i = SENSOR_NOISE_PARAMETERS.iter().position(|&n| n == name);
+                        &mut self.sensor_std[i.expect("every other name a tuning takes is a sensor's")]
+                    }
+                };
+                *slot = value;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -342,6 +320,7 @@ pub fn score(truth: &Truth, estimates: &Estimates, rate: f64, settle: f64) -> [W
 #[cfg(test)]
 mod tests {
     use super::*;
+    use start_values::StartValues;
 
     fn tuning() -> Tuning {
         Tuning::new(&Settings::default(), [0.1, 0.2, 0.3, 1.0, 1.1, 1.2, 1.3])

@@ -19,7 +19,7 @@ use super::metrics::{
 use super::ours::{self, Settings, Tuning};
 use super::paper::{raw_average, raw_average_position, run_paper, PaperSettings};
 use crate::shard::{self, Shard};
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 use truth::s4::channels::{simulate, Channel};
 use truth::s4::faults::{FaultKind, FaultProfile, Faults};
 use truth::s4::profile::Profile;

@@ -132,6 +132,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use start_values::SetByName;
     use truth::s4::channels::simulate;
     use truth::s4::faults::Faults;
     use truth::s4::profile::Profile;

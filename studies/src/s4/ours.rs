@@ -57,7 +57,7 @@ use estimator::{
     SupervisorSettings, UnscentedParams,
 };
 use nalgebra::DMatrix;
-use start_values::StartValues;
+use start_values::SetByName;
 
 use truth::s4::channels::Channel;
 use truth::s4::parameters::SLOT_PITCH;
@@ -198,9 +198,11 @@ impl Tuning {
         "ukf_beta",
         "ukf_kappa",
     ];
+}
 
+impl SetByName for Tuning {
     /// Whether [`Tuning::set`] takes `name`.
-    pub fn takes(name: &str) -> bool {
+    fn takes(name: &str) -> bool {
         Self::NAMES.contains(&name)
     }
 
@@ -209,7 +211,7 @@ impl Tuning {
     /// name the tuning does not have (the FMU's supervisor and slip settings, `filter`, …
     /// are the FMU's only), or a value the FMU would refuse too (not finite, or a negative
     /// σ or intensity).
-    pub fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+    fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
         if name == "sample_time" {
             return Err(
                 "sample_time is the recording's telegram interval, not a tuning of the in-process filter".into()
@@ -249,30 +251,6 @@ impl Tuning {
                     ))
                 }
             },
-        }
-        Ok(())
-    }
-
-    /// Every start value of `values` set on this tuning; returns the names it does not
-    /// take ([`Tuning::takes`]), which only an FMU run can be given. A value of a name it
-    /// takes that [`Tuning::set`] refuses is an error.
-    pub fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String> {
-        let mut fmu_only = Vec::new();
-        for (name, value) in values.iter() {
-            if Self::takes(name) {
-                self.set(name, value).map_err(|e| format!("start value {e}"))?;
-            } else {
-                fmu_only.push(name.to_string());
-            }
-        }
-        Ok(fmu_only)
-    }
-
-    /// Every start value of `values` set on this tuning, an in-process run's: a name it
-    /// does not take is an error.
-    pub fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
-        for (name, value) in values.iter() {
-            self.set(name, value).map_err(|e| format!("start value {e}"))?;
         }
         Ok(())
     }

@@ -20,7 +20,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 
 use analyzer::consistency::{Nis, NormalisedError, Reading};
 use analyzer::report::{Options, PairReport, Report};

@@ -131,6 +131,7 @@ pub fn run(
 mod tests {
     use super::*;
     use estimator::models::Missile6Dof;
+    use start_values::SetByName;
 
     #[test]
     fn the_parameter_names_are_the_fmus_of_the_states_and_measurements() {

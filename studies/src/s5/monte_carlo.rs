@@ -13,7 +13,7 @@ use estimator::FilterKind;
 use super::excitation::cramer_rao;
 use super::study::{run_filter, Tuning};
 use crate::shard::{self, Shard};
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 use truth::s5::flight::{flight, measure, simulate, Settings};
 use truth::s5::parameters::NAMES;
 

@@ -27,7 +27,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 
 use analyzer::compare::Comparison;
 use analyzer::consistency::{Nees, Nis, NormalisedError, Reading};

@@ -14,7 +14,7 @@ use estimator::{FilterKind, SupervisorSettings};
 
 use super::study::{run_supervised, Tuning};
 use crate::shard::{self, Shard};
-use start_values::StartValues;
+use start_values::{SetByName, StartValues};
 use truth::s5::flight::{flight, measure, simulate_flight, Settings};
 use truth::s5::manoeuvre::Manoeuvre;
 use truth::s5::parameters::{BEFORE, NAMES};

@@ -3,7 +3,7 @@
 
 use estimator::models::{Airframe, Missile6Dof};
 use estimator::UnscentedParams;
-use start_values::StartValues;
+use start_values::SetByName;
 use truth::s5::flight::Truth;
 use truth::s5::parameters::{start, BEFORE, SENSOR_STD};
 
@@ -133,9 +133,29 @@ impl Tuning {
         }
     }
 
+    /// `Q` and `R` in the state order of [`Missile6Dof`].
+    pub fn noise(&self) -> estimator::Noise {
+        let [v, angle, h, rate] = self.motion_std;
+        let mut q = vec![v * v, v * v, v * v, angle * angle, angle * angle, angle * angle, h * h, rate * rate];
+        q.extend([rate * rate; 2]);
+        for i in 0..10 {
+            let s = self.coefficient_relative_std * self.prior_mean[10 + i].abs().max(0.05);
+            q.push(s * s);
+        }
+        let r: Vec<f64> = self.sensor_std.iter().map(|s| s * s).collect();
+        estimator::Noise::diagonal(&q, &r).expect("the S5 tuning is a valid covariance pair")
+    }
+
+    /// The prior.
+    pub fn prior(&self) -> estimator::Gaussian {
+        estimator::Gaussian::diagonal(&self.prior_mean, &self.prior_std.map(|s| s * s))
+    }
+}
+
+impl SetByName for Tuning {
     /// Whether [`Tuning::set`] takes `name`: every FMU parameter `fmu_run::parameters` and
     /// `fmu_run::integers` write from a tuning (the flight's `sample_time` aside).
-    pub fn takes(name: &str) -> bool {
+    fn takes(name: &str) -> bool {
         SENSOR_NOISE_PARAMETERS.contains(&name)
             || PRIOR_PARAMETERS.contains(&name)
             || PRIOR_STD_PARAMETERS.contains(&name)
@@ -149,7 +169,7 @@ impl Tuning {
     /// supervisor's, `filter`, `sample_time`, … are the FMU's only), or a value the FMU
     /// would refuse too (not finite, a negative σ, a number of RK4 steps that is not a
     /// positive integer).
-    pub fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+    fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
         if name == "sample_time" {
             return Err("sample_time is the flight's sample time (its measurements' clock), not a tuning".into());
         }
@@ -196,48 +216,6 @@ impl Tuning {
             }
         }
         Ok(())
-    }
-
-    /// Every start value of `values` set on this tuning; returns the names it does not
-    /// take ([`Tuning::takes`]), which only an FMU run can be given. A value of a name it
-    /// takes that [`Tuning::set`] refuses is an error.
-    pub fn set_known(&mut self, values: &StartValues) -> Result<Vec<String>, String> {
-        let mut fmu_only = Vec::new();
-        for (name, value) in values.iter() {
-            if Self::takes(name) {
-                self.set(name, value).map_err(|e| format!("start value {e}"))?;
-            } else {
-                fmu_only.push(name.to_string());
-            }
-        }
-        Ok(fmu_only)
-    }
-
-    /// Every start value of `values` set on this tuning, an in-process run's: a name it
-    /// does not take is an error.
-    pub fn set_all(&mut self, values: &StartValues) -> Result<(), String> {
-        for (name, value) in values.iter() {
-            self.set(name, value).map_err(|e| format!("start value {e}"))?;
-        }
-        Ok(())
-    }
-
-    /// `Q` and `R` in the state order of [`Missile6Dof`].
-    pub fn noise(&self) -> estimator::Noise {
-        let [v, angle, h, rate] = self.motion_std;
-        let mut q = vec![v * v, v * v, v * v, angle * angle, angle * angle, angle * angle, h * h, rate * rate];
-        q.extend([rate * rate; 2]);
-        for i in 0..10 {
-            let s = self.coefficient_relative_std * self.prior_mean[10 + i].abs().max(0.05);
-            q.push(s * s);
-        }
-        let r: Vec<f64> = self.sensor_std.iter().map(|s| s * s).collect();
-        estimator::Noise::diagonal(&q, &r).expect("the S5 tuning is a valid covariance pair")
-    }
-
-    /// The prior.
-    pub fn prior(&self) -> estimator::Gaussian {
-        estimator::Gaussian::diagonal(&self.prior_mean, &self.prior_std.map(|s| s * s))
     }
 }
 
