@@ -96,6 +96,12 @@ def s2_fmu(fmu_dir) -> Path:
 
 
 @pytest.fixture(scope="session")
+def s3_fmu(fmu_dir) -> Path:
+    """Path of kalfmu_s3_wheel_rail_lr.fmu."""
+    yield packaged(fmu_dir, "kalfmu_s3_wheel_rail_lr")
+
+
+@pytest.fixture(scope="session")
 def s4_fmu(fmu_dir) -> Path:
     """Path of kalfmu_s4_maglev.fmu."""
     yield packaged(fmu_dir, "kalfmu_s4_maglev")
@@ -108,7 +114,13 @@ def s5_fmu(fmu_dir) -> Path:
 
 
 #: Every estimator FMU, by the short name its parametrised tests carry in their ids.
-FMUS = {"s1": "kalfmu_s1_load", "s2": "kalfmu_s2_wheel_rail", "s4": "kalfmu_s4_maglev", "s5": "kalfmu_s5_missile"}
+FMUS = {
+    "s1": "kalfmu_s1_load",
+    "s2": "kalfmu_s2_wheel_rail",
+    "s3": "kalfmu_s3_wheel_rail_lr",
+    "s4": "kalfmu_s4_maglev",
+    "s5": "kalfmu_s5_missile",
+}
 
 #: The FMUs the generic behavioural tests (`case`) drive: each input is a
 #: measurement with its `r_<input>_std` or a control (S5's deflections).

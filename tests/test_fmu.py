@@ -1,13 +1,14 @@
 """The packaged estimator FMUs driven through fmpy, as an importer drives them:
 what holds for every FMU (parametrised over S1 `kalfmu_s1_load.fmu`, S2
-`kalfmu_s2_wheel_rail.fmu` and S5 `kalfmu_s5_missile.fmu`, test ids `s1`,
-`s2`, `s5`), and S1 against the library run in-process.
+`kalfmu_s2_wheel_rail.fmu`, S3 `kalfmu_s3_wheel_rail_lr.fmu`, S4
+`kalfmu_s4_maglev.fmu` and S5 `kalfmu_s5_missile.fmu`, test ids `s1`, `s2`,
+`s3`, `s4`, `s5`), and S1 against the library run in-process.
 
 What is specified here for every FMU:
 
 - the FMU passes both static checkers (fmpy's validation, fmutool -check),
   and its shared library links only libc, libm and libgcc_s;
-- step by step (`fmpy.fmi2.FMU2Slave`; S1 on the study's table, S2 on a
+- step by step (`fmpy.fmi2.FMU2Slave`; S1 on the study's table, S2 and S3 on a
   vehicle at rest, S5 on the study's flight with its deflections): illegal calls are refused and leave the instance as it
   was, instances are independent, FMU states roll back and restore in a new
   instance exactly, NaN inputs are skipped, counted and reported once per
@@ -574,9 +575,10 @@ def read_s5_table(path: Path) -> S5Table:
 
 @pytest.fixture(scope="module", params=CASE_FMUS)
 def case(request, fmu_dir, tmp_path_factory) -> Case:
-    """Each FMU in turn (test ids s1, s2, s4, s5): S1 with the study's table
-    (stiffness/random); S2 with a vehicle at rest (the sensors' noise only,
-    0.01 m/s²; a constant input would read as a stuck sensor); S4 with a train
+    """Each FMU in turn (test ids s1, s2, s3, s4, s5): S1 with the study's table
+    (stiffness/random); S2 and S3 with a vehicle at rest (the sensors' noise
+    only, 0.01 m/s², S3's deflections 0.01 m; a constant input would read as a
+    stuck sensor); S4 with a train
     at 5 m/s and a marker every second (`s4_positions`); S5 with the
     first 5 s of the study's flight (`kalfmu s5-export`), whose start is
     the FMU's default prior, and the same flight measured with other noise."""

@@ -245,6 +245,7 @@ pub struct Unit {
 pub const UNITS: &[Unit] = &[
     Unit { name: "1", exponents: [0, 0, 0, 0] },
     Unit { name: "s", exponents: [0, 0, 1, 0] },
+    Unit { name: "1/s", exponents: [0, 0, -1, 0] },
     Unit { name: "kg", exponents: [1, 0, 0, 0] },
     Unit { name: "m", exponents: [0, 1, 0, 0] },
     Unit { name: "m/s", exponents: [0, 1, -1, 0] },

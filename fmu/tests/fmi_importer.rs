@@ -11,9 +11,12 @@
 //! slot slip, a resend, a dropout and markers, against `PrwTrain` behind a supervisor
 //! with resends stuck from the first repeat and slips as quantised steps. Each other
 //! check runs on S1 (`kalfmu_s1_load`, several parameters off their
-//! defaults, so that every one is seen to reach the filter) and on S2
+//! defaults, so that every one is seen to reach the filter), on S2
 //! (`kalfmu_s2_wheel_rail`, its default parameters, whose vehicle is checked
-//! to be the library's catalogue car, `VerticalVehicle::zhai_passenger`);
+//! to be the library's catalogue car, `VerticalVehicle::zhai_passenger`) and on
+//! S3 (`kalfmu_s3_wheel_rail_lr`, its defaults, checked to be
+//! `RollVehicle::zhai_passenger`, but a return rate of the forces and the car
+//! body's roll inertia; its deflections a thousandth of the accelerations' sines);
 //! the reference is the SRCKF built here from the estimator crate — the
 //! study's model, RK4, `Q`, `R` and prior from the parameter values as the
 //! FMU's documentation gives them — behind the same `Supervisor`:
@@ -51,8 +54,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use estimator::models::{
-    Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, PrwTrain, VerticalVehicle,
-    WheelRailVertical,
+    Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, PrwTrain, RollVehicle, VerticalVehicle,
+    WheelRailRoll, WheelRailVertical,
 };
 use estimator::{
     build_filter, Discretized, FilterKind, Gaussian, Noise, QuantizedSteps, StateEstimator, Supervisor, UnscentedParams,
@@ -200,6 +203,22 @@ impl Setup {
             supervisor: default_supervisor,
             measurements: accelerations,
             signal: tones,
+        }
+    }
+
+    /// S3 with its defaults but a return rate of the forces and a lighter car body in
+    /// roll (both seen to reach the filter); deflections a thousandth of the tones.
+    fn s3() -> Self {
+        let descriptor = descriptor("kalfmu_s3_wheel_rail_lr");
+        Self {
+            descriptor,
+            reals: vec![("force_return_rate", 2.0), ("car_body_roll_inertia", 6e4)],
+            substeps: Some(1),
+            filter: 2,
+            reference: s3_reference,
+            supervisor: default_supervisor,
+            measurements: s3_measurements,
+            signal: s3_tones,
         }
     }
 
@@ -369,6 +388,74 @@ fn s2_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
     variances[WheelRailVertical::FORCES..].fill(p("p0_force_std").powi(2));
     let prior = Gaussian::diagonal(&mean, &variances);
     build_filter(FilterKind::SrCkf, model, noise, &prior, UKF).unwrap()
+}
+
+/// S3's vehicle: the whole car with roll, with the weighed static wheel load.
+fn s3_vehicle(s: &Setup) -> RollVehicle {
+    let p = |n: &str| s.get(n);
+    let beyond = p("primary_damping_beyond");
+    RollVehicle {
+        car_body_mass: p("car_body_mass"),
+        car_body_pitch_inertia: p("car_body_pitch_inertia"),
+        car_body_roll_inertia: p("car_body_roll_inertia"),
+        bogie_mass: p("bogie_mass"),
+        bogie_pitch_inertia: p("bogie_pitch_inertia"),
+        bogie_roll_inertia: p("bogie_roll_inertia"),
+        wheelset_mass: p("wheelset_mass"),
+        wheelset_roll_inertia: p("wheelset_roll_inertia"),
+        primary_stiffness: p("primary_stiffness"),
+        primary_damper: PiecewiseLinear::new([p("primary_damping"), beyond, beyond], [p("primary_damper_knee"); 2])
+            .unwrap(),
+        secondary_stiffness: p("secondary_stiffness"),
+        secondary_damping: p("secondary_damping"),
+        half_bogie_spacing: p("half_bogie_spacing"),
+        half_wheelbase: p("half_wheelbase"),
+        primary_half_span: p("primary_half_span"),
+        secondary_half_span: p("secondary_half_span"),
+        contact_half_span: p("contact_half_span"),
+        static_wheel_load: p("static_wheel_load"),
+    }
+}
+
+/// S3's SRCKF: its vehicle and the forces' return rate, RK4; the motion states'
+/// per-sample variances scaled by `dt / sample_time` (car body and bogies: 9
+/// coordinates, wheelsets: 8), the forces' driving noise `intensity·dt`; `R` from
+/// the sensors' deviations; the prior at equilibrium with the forces at the static
+/// wheel load.
+fn s3_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
+    let p = |n: &str| s.get(n);
+    let vehicle = s3_vehicle(s);
+    let model = Discretized::rk4(
+        WheelRailRoll { vehicle, force_return_rate: p("force_return_rate") },
+        s.substeps.unwrap_or(1) as usize,
+    );
+    let fraction = dt / p("sample_time");
+    let (body, wheelset) = (p("q_body_std").powi(2) * fraction, p("q_wheelset_std").powi(2) * fraction);
+    let mut q = [[body; 9].as_slice(), &[wheelset; 8], &[body; 9], &[wheelset; 8]].concat();
+    q.extend([p("force_noise_intensity") * dt; 8]);
+    let r: Vec<f64> = s.inputs().iter().map(|n| p(&format!("r_{n}_std")).powi(2)).collect();
+    let noise = Noise::diagonal(&q, &r).unwrap();
+    let mut mean = [0.0; 42];
+    mean[WheelRailRoll::FORCES..].fill(vehicle.static_wheel_load);
+    let mut variances = [p("p0_motion_std").powi(2); 42];
+    variances[WheelRailRoll::FORCES..].fill(p("p0_force_std").powi(2));
+    build_filter(FilterKind::SrCkf, model, noise, &Gaussian::diagonal(&mean, &variances), UKF).unwrap()
+}
+
+/// S3's inputs: `accelerations`, the deflections (m) a thousandth of them.
+fn s3_measurements(s: &Setup, n: usize, dt: f64, seed: u64) -> Vec<Vec<f64>> {
+    let mut rows = accelerations(s, n, dt, seed);
+    for row in &mut rows {
+        row[WheelRailRoll::DEFLECTIONS].iter_mut().for_each(|d| *d *= 1e-3);
+    }
+    rows
+}
+
+/// S3's inputs at `t`: `tones`, the deflections (m) a thousandth of them.
+fn s3_tones(s: &Setup, t: f64) -> Vec<f64> {
+    let mut z = tones(s, t);
+    z[WheelRailRoll::DEFLECTIONS].iter_mut().for_each(|d| *d *= 1e-3);
+    z
 }
 
 /// S5's airframe from the parameters (defaults: the library's tactical missile).
@@ -779,6 +866,16 @@ fn s2_outputs_equal_the_library_run_in_process() {
     outputs_equal_the_library_run_in_process(&setup);
 }
 
+#[test]
+fn s3_outputs_equal_the_library_run_in_process() {
+    let setup = Setup::s3();
+    let defaults = Setup { reals: Vec::new(), ..Setup::s3() };
+    // The FMU's default vehicle is the library's catalogue car, weight and all.
+    assert_eq!(s3_vehicle(&defaults), RollVehicle::zhai_passenger());
+    assert_ne!(s3_vehicle(&setup), RollVehicle::zhai_passenger());
+    outputs_equal_the_library_run_in_process(&setup);
+}
+
 /// S5 driven as a master drives it, sample by sample: the measurements and the
 /// controls of t_k set, read, step, read; against the library's SVD-CKF behind
 /// its own supervisor, predicting with the controls of t_(k-1) and updating
@@ -920,6 +1017,11 @@ fn s2_communication_steps_shorter_and_longer_than_the_sample_time() {
 }
 
 #[test]
+fn s3_communication_steps_shorter_and_longer_than_the_sample_time() {
+    communication_steps_shorter_and_longer_than_the_sample_time(&Setup::s3());
+}
+
+#[test]
 fn s4_communication_steps_shorter_and_longer_than_the_sample_time() {
     communication_steps_shorter_and_longer_than_the_sample_time(&Setup::s4());
 }
@@ -985,6 +1087,11 @@ fn s1_fmu_state_get_set_serialize_through_the_importer() {
 #[test]
 fn s2_fmu_state_get_set_serialize_through_the_importer() {
     fmu_state_get_set_serialize_through_the_importer(&Setup::s2(), 1);
+}
+
+#[test]
+fn s3_fmu_state_get_set_serialize_through_the_importer() {
+    fmu_state_get_set_serialize_through_the_importer(&Setup::s3(), 1);
 }
 
 #[test]

@@ -1,10 +1,11 @@
 //! A probe of S3, in-process: each case of `truth::s3` at 80 km/h and 1 kHz with 2 %
 //! sensor noise (seed SEED), the SRCKF on the catalogue car with the paper's random-walk
-//! forces and with forces returning to the static load at RATE /s, each with the
+//! forces and with forces returning to the static load at RATE /s (by default the
+//! study's, `Tuning::FORCE_RETURN_RATE`), each with the
 //! accelerations alone and with the primary deflections. Prints per configuration the
 //! worst wheelset's correlations of left, right, sum and difference, and wheelset 1's
 //! left RMSE. The environment varies the tuning: FORCE_INTENSITY (N²/s, the forces'
-//! noise), MOTION_SCALE (a factor on the motion states' noise), DEFLECTION_R_SCALE (a
+//! noise, by default `Tuning::FORCE_INTENSITY`), MOTION_SCALE (a factor on the motion states' noise), DEFLECTION_R_SCALE (a
 //! factor on the deflection transducers' σ); SERIES prints the twist's forces every 0.25 s
 //! with the deflections.
 //!
@@ -18,7 +19,10 @@ use truth::s3::cases::{measure, simulate, Case, Settings};
 fn main() {
     let mut args = std::env::args().skip(1);
     let seed: u64 = args.next().map_or(1, |s| s.parse().expect("SEED"));
-    let rates: Vec<f64> = args.map(|s| s.parse().expect("RATE in 1/s")).collect();
+    let mut rates: Vec<f64> = args.map(|s| s.parse().expect("RATE in 1/s")).collect();
+    if rates.is_empty() {
+        rates.push(Tuning::FORCE_RETURN_RATE);
+    }
     let settings = Settings { seed, ..Settings::default() };
     let mut models = vec![ForceModel::RandomWalk];
     models.extend(rates.iter().map(|&r| ForceModel::Returning(r)));

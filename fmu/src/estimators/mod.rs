@@ -5,6 +5,7 @@
 
 mod s1_load;
 mod s2_wheel_rail;
+mod s3_wheel_rail_lr;
 mod s4_maglev;
 mod s5_missile;
 
@@ -132,7 +133,13 @@ impl Descriptor {
 /// the library keeps no state at all between calls (not even a table it
 /// would never free when an importer unloads it).
 pub fn all() -> Vec<Descriptor> {
-    vec![s1_load::descriptor(), s2_wheel_rail::descriptor(), s4_maglev::descriptor(), s5_missile::descriptor()]
+    vec![
+        s1_load::descriptor(),
+        s2_wheel_rail::descriptor(),
+        s3_wheel_rail_lr::descriptor(),
+        s4_maglev::descriptor(),
+        s5_missile::descriptor(),
+    ]
 }
 
 /// The estimator with this GUID.
