@@ -19,14 +19,12 @@
 
 use std::fmt;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
-
-use super::daq::AntiAlias;
+use super::daq::{check_recording, with_noise, AntiAlias};
 use super::irregularity::{Irregularity, RandomProfile, TrackSpectrum};
 use super::parameters::{Track, Vehicle};
 use super::plant::{Settings as PlantSettings, Simulation};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 
 /// The excitations of the paper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -181,22 +179,7 @@ impl Settings {
     /// sample time is a whole number of the truth's integration steps, a noise fraction of
     /// at least zero.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = [("speed", self.speed), ("rate", self.rate), ("duration", self.duration)];
-        if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0 && v.is_finite())) {
-            return Err(format!("{name} must be positive, got {v}"));
-        }
-        let steps = 1.0 / (self.rate * PlantSettings::default().dt);
-        if steps < 1.0 || (steps - steps.round()).abs() > 1e-9 * steps {
-            return Err(format!(
-                "the sample time 1/{} s must be a whole number of the truth's {} s steps",
-                self.rate,
-                PlantSettings::default().dt
-            ));
-        }
-        if !(self.noise_fraction >= 0.0 && self.noise_fraction.is_finite()) {
-            return Err(format!("the noise fraction must be at least 0, got {}", self.noise_fraction));
-        }
-        Ok(())
+        check_recording(self.speed, self.rate, self.duration, self.noise_fraction, PlantSettings::default().dt)
     }
 }
 
@@ -266,27 +249,8 @@ pub fn simulate(case: Case, settings: &Settings) -> Truth {
 
 /// Adds seeded white noise of `fraction` of each channel's RMS to the accelerations.
 pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
-    let n = truth.accelerations.len().max(1) as f64;
-    let mut noise_std = [0.0; 7];
-    for a in &truth.accelerations {
-        for (s, v) in noise_std.iter_mut().zip(a) {
-            *s += v * v;
-        }
-    }
-    noise_std = noise_std.map(|s| fraction * (s / n).sqrt());
     // Its own stream: the track's seed must not also draw the noise.
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F5E_5501);
-    let accelerations = truth
-        .accelerations
-        .iter()
-        .map(|a| {
-            let mut z = *a;
-            for (zi, s) in z.iter_mut().zip(noise_std) {
-                let e: f64 = StandardNormal.sample(&mut rng);
-                *zi += s * e;
-            }
-            z
-        })
-        .collect();
+    let (accelerations, noise_std) = with_noise(&truth.accelerations, fraction, &mut rng);
     Measurements { accelerations, noise_std }
 }

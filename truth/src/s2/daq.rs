@@ -10,8 +10,61 @@
 //! (222 Hz at 80 km/h) and the wheels' impact response into the band, where the estimator
 //! reads them as forces (the sweep measured a weld correlation of 0.56 at 80 km/h and 0.31
 //! at 160 km/h, against 0.98 at 120 km/h, where the folded tones happened to miss).
+//!
+//! Shared by every recorded truth (S2's and S3's): [`check_recording`], what a recording's
+//! settings must be, and [`with_noise`], the sensors' white noise.
 
 use std::f64::consts::PI;
+
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// Checks that a recording can be made: a positive speed and duration, a rate whose sample
+/// time is a whole number of the truth's integration steps `dt`, a noise fraction of at
+/// least zero.
+pub fn check_recording(speed: f64, rate: f64, duration: f64, noise_fraction: f64, dt: f64) -> Result<(), String> {
+    let positive = [("speed", speed), ("rate", rate), ("duration", duration)];
+    if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0 && v.is_finite())) {
+        return Err(format!("{name} must be positive, got {v}"));
+    }
+    let steps = 1.0 / (rate * dt);
+    if steps < 1.0 || (steps - steps.round()).abs() > 1e-9 * steps {
+        return Err(format!("the sample time 1/{rate} s must be a whole number of the truth's {dt} s steps"));
+    }
+    if !(noise_fraction >= 0.0 && noise_fraction.is_finite()) {
+        return Err(format!("the noise fraction must be at least 0, got {noise_fraction}"));
+    }
+    Ok(())
+}
+
+/// The channels with white noise of `fraction` of each one's RMS drawn from `rng`, sample
+/// by sample and channel by channel, and the noise's standard deviations.
+pub fn with_noise<const N: usize>(
+    channels: &[[f64; N]],
+    fraction: f64,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<[f64; N]>, [f64; N]) {
+    let n = channels.len().max(1) as f64;
+    let mut std = [0.0; N];
+    for row in channels {
+        for (s, v) in std.iter_mut().zip(row) {
+            *s += v * v;
+        }
+    }
+    std = std.map(|s| fraction * (s / n).sqrt());
+    let noisy = channels
+        .iter()
+        .map(|row| {
+            let mut z = *row;
+            for (zi, s) in z.iter_mut().zip(std) {
+                let e: f64 = StandardNormal.sample(rng);
+                *zi += s * e;
+            }
+            z
+        })
+        .collect();
+    (noisy, std)
+}
 
 /// A Blackman-windowed sinc low-pass, linear phase, unit gain at DC: it passes up to 0.4
 /// of the output rate (within 0.01 dB) and stops from 0.5 of it (below −70 dB).

@@ -12,12 +12,11 @@ use std::fmt;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::irregularity::{Irregularity, TrackSpectra};
 use super::parameters::{Track, Vehicle};
 use super::plant::{Sample, Settings as PlantSettings, Simulation};
-use crate::s2::daq::AntiAlias;
+use crate::s2::daq::{check_recording, with_noise, AntiAlias};
 
 /// The vertical accelerations: axle boxes (at ±d_w), the bogie frames above them, the car
 /// body's corners above the secondary springs (at ±l_c, ±d_s).
@@ -129,22 +128,7 @@ impl Settings {
     /// sample time is a whole number of the truth's integration steps, a noise fraction of
     /// at least zero.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = [("speed", self.speed), ("rate", self.rate), ("duration", self.duration)];
-        if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0 && v.is_finite())) {
-            return Err(format!("{name} must be positive, got {v}"));
-        }
-        let dt = PlantSettings::default().dt;
-        let steps = 1.0 / (self.rate * dt);
-        if steps < 1.0 || (steps - steps.round()).abs() > 1e-9 * steps {
-            return Err(format!(
-                "the sample time 1/{} s must be a whole number of the truth's {dt} s steps",
-                self.rate
-            ));
-        }
-        if !(self.noise_fraction >= 0.0 && self.noise_fraction.is_finite()) {
-            return Err(format!("the noise fraction must be at least 0, got {}", self.noise_fraction));
-        }
-        Ok(())
+        check_recording(self.speed, self.rate, self.duration, self.noise_fraction, PlantSettings::default().dt)
     }
 }
 
@@ -221,10 +205,10 @@ pub fn simulate(case: Case, settings: &Settings) -> Result<Truth, String> {
 pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
     // Its own stream: the track's seed must not also draw the noise.
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F5E_5503);
-    let (accelerations, accelerations_noise_std) = noisy(&truth.accelerations, fraction, &mut rng);
-    let (deflections, deflections_noise_std) = noisy(&truth.deflections, fraction, &mut rng);
+    let (accelerations, accelerations_noise_std) = with_noise(&truth.accelerations, fraction, &mut rng);
+    let (deflections, deflections_noise_std) = with_noise(&truth.deflections, fraction, &mut rng);
     let (lateral_accelerations, lateral_accelerations_noise_std) =
-        noisy(&truth.lateral_accelerations, fraction, &mut rng);
+        with_noise(&truth.lateral_accelerations, fraction, &mut rng);
     Measurements {
         accelerations,
         accelerations_noise_std,
@@ -233,29 +217,4 @@ pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
         lateral_accelerations,
         lateral_accelerations_noise_std,
     }
-}
-
-/// The channels with white noise of `fraction` of each one's RMS, and the noise's standard
-/// deviations.
-fn noisy<const N: usize>(channels: &[[f64; N]], fraction: f64, rng: &mut ChaCha8Rng) -> (Vec<[f64; N]>, [f64; N]) {
-    let n = channels.len().max(1) as f64;
-    let mut std = [0.0; N];
-    for row in channels {
-        for (s, v) in std.iter_mut().zip(row) {
-            *s += v * v;
-        }
-    }
-    std = std.map(|s| fraction * (s / n).sqrt());
-    let noisy = channels
-        .iter()
-        .map(|row| {
-            let mut z = *row;
-            for (zi, s) in z.iter_mut().zip(std) {
-                let e: f64 = StandardNormal.sample(rng);
-                *zi += s * e;
-            }
-            z
-        })
-        .collect();
-    (noisy, std)
 }
