@@ -88,6 +88,22 @@ impl StartValues {
         merged
     }
 
+    /// The header line of a study that sets these values on its FMU runs and on its
+    /// in-process filter, naming `fmu_only`, those the in-process filter has no parameter
+    /// for; `None` without any value.
+    pub fn header(&self, fmu_only: &[String]) -> Option<String> {
+        if self.is_empty() {
+            return None;
+        }
+        let mut line =
+            format!("start values, over the study's in every FMU run and in the in-process filter: {}", self.summary());
+        if !fmu_only.is_empty() {
+            line +=
+                &format!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
+        }
+        Some(line)
+    }
+
     /// One line for a report: `NAME=VALUE NAME=VALUE …`, or `none`.
     pub fn summary(&self) -> String {
         if self.is_empty() {

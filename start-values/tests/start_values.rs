@@ -57,3 +57,20 @@ fn over_the_defaults_they_replace_their_names_in_place_and_add_the_rest() {
     assert_eq!(merged, expected);
     assert_eq!(StartValues::none().summary(), "none");
 }
+
+#[test]
+fn the_header_names_the_values_and_those_only_the_fmu_takes_and_is_absent_without_any() {
+    assert_eq!(StartValues::none().header(&[]), None);
+    let mut values = StartValues::none();
+    values.insert("q", 1.0);
+    values.insert("m1", 4.0);
+    assert_eq!(
+        values.header(&[]).unwrap(),
+        "start values, over the study's in every FMU run and in the in-process filter: q=1e0 m1=4e0"
+    );
+    assert_eq!(
+        values.header(&["m1".into()]).unwrap(),
+        "start values, over the study's in every FMU run and in the in-process filter: q=1e0 m1=4e0; \
+         in the FMU only (the in-process filter has no such parameter): m1"
+    );
+}

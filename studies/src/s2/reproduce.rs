@@ -564,16 +564,8 @@ pub fn report(
         settings.seed,
         100.0 * settings.noise_fraction
     );
-    if !start_values.is_empty() {
-        print!(
-            "start values, over the study's in every FMU run and in the in-process filter: {}",
-            start_values.summary()
-        );
-        if fmu_only.is_empty() {
-            println!();
-        } else {
-            println!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
-        }
+    if let Some(line) = start_values.header(&fmu_only) {
+        println!("{line}");
     }
     println!(
         "truth: vehicle-track coupled (modal rail on discrete supports, sleepers, ballast, Hertz contact, Zhai's \

@@ -264,16 +264,8 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
         fmu_dir.join(format!("{IDENTIFIER}.fmu")).display(),
         dir.display()
     );
-    if !start_values.is_empty() {
-        print!(
-            "start values, over the study's in every FMU run and in the in-process filter: {}",
-            start_values.summary()
-        );
-        if fmu_only.is_empty() {
-            println!();
-        } else {
-            println!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
-        }
+    if let Some(line) = start_values.header(&fmu_only) {
+        println!("{line}");
     }
     let mut failures = 0;
     let mut profiles = Vec::new();

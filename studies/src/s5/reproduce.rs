@@ -357,16 +357,8 @@ pub fn report(
         fmu_dir.join(format!("{IDENTIFIER}.fmu")).display(),
         dir.display()
     );
-    if !start_values.is_empty() {
-        print!(
-            "start values, over the study's in every FMU run and in the in-process filter: {}",
-            start_values.summary()
-        );
-        if fmu_only.is_empty() {
-            println!();
-        } else {
-            println!("; in the FMU only (the in-process filter has no such parameter): {}", fmu_only.join(", "));
-        }
+    if let Some(line) = start_values.header(&fmu_only) {
+        println!("{line}");
     }
     let fmu_path = fmu_dir.join(format!("{IDENTIFIER}.fmu"));
     let given = Given {
