@@ -3,8 +3,8 @@
 //! forces and with forces returning to the static load at RATE /s (by default the
 //! study's, `Tuning::FORCE_RETURN_RATE`), each with the
 //! accelerations alone and with the primary deflections. Prints per configuration the
-//! worst wheelset's correlations of left, right, sum and difference, and wheelset 1's
-//! left RMSE. The environment varies the tuning: FORCE_INTENSITY (N²/s, the forces'
+//! worst wheelset's correlations of left, right, sum and difference, wheelset 1's left
+//! RMSE, and the lowest 2σ coverage of left, right and difference. The environment varies the tuning: FORCE_INTENSITY (N²/s, the forces'
 //! noise, by default `Tuning::FORCE_INTENSITY`), MOTION_SCALE (a factor on the motion states' noise), DEFLECTION_R_SCALE (a
 //! factor on the deflection transducers' σ); SERIES prints the twist's forces every 0.25 s
 //! with the deflections.
@@ -59,13 +59,17 @@ fn main() {
                             s.iter().map(f).fold(f64::INFINITY, f64::min)
                         };
                         println!(
-                            "{label} L {:.3} R {:.3} sum {:.4} diff {:.3}  L1 RMSE {:.3} kN  rejected {}",
+                            "{label} L {:.3} R {:.3} sum {:.4} diff {:.3}  L1 RMSE {:.3} kN  rejected {}  \
+                             2σ min L {:.2} R {:.2} diff {:.2}",
                             worst(&|w| w.left.correlation),
                             worst(&|w| w.right.correlation),
                             worst(&|w| w.sum.correlation),
                             worst(&|w| w.difference.correlation),
                             s[0].left.rmse / 1e3,
-                            estimates.rejected
+                            estimates.rejected,
+                            worst(&|w| w.left.two_sigma_coverage),
+                            worst(&|w| w.right.two_sigma_coverage),
+                            worst(&|w| w.difference.two_sigma_coverage),
                         );
                     }
                 }

@@ -151,6 +151,8 @@ pub struct Estimates {
     pub forces: Vec<[f64; 8]>,
     /// Their standard deviations (N).
     pub std: Vec<[f64; 8]>,
+    /// Each wheelset's `F_L + F_R` standard deviation (N), from the covariance.
+    pub sum_std: Vec<[f64; 4]>,
     /// Each wheelset's `F_L − F_R` standard deviation (N), from the covariance.
     pub difference_std: Vec<[f64; 4]>,
     /// Measurement rows the gate left out.
@@ -206,10 +208,12 @@ pub fn run_filter(
             estimates.forces.push(states.map(|s| mean[s]));
             estimates.std.push(states.map(|s| step.filter.variance(s).max(0.0).sqrt()));
             let covariance = step.filter.covariance();
-            estimates.difference_std.push(std::array::from_fn(|j| {
+            let combined = |j: usize, sign: f64| {
                 let (l, r) = (WheelRailRoll::FORCES + 2 * j, WheelRailRoll::FORCES + 2 * j + 1);
-                (covariance[(l, l)] + covariance[(r, r)] - 2.0 * covariance[(l, r)]).max(0.0).sqrt()
-            }));
+                (covariance[(l, l)] + covariance[(r, r)] + sign * 2.0 * covariance[(l, r)]).max(0.0).sqrt()
+            };
+            estimates.sum_std.push(std::array::from_fn(|j| combined(j, 1.0)));
+            estimates.difference_std.push(std::array::from_fn(|j| combined(j, -1.0)));
         })
         .map_err(|e| e.to_string())?;
     estimates.rejected = supervised.supervisor().rejected();
@@ -225,6 +229,10 @@ pub struct Score {
     pub rmse: f64,
     /// The true signal's standard deviation about its mean (N).
     pub dynamic_std: f64,
+    /// Share of the errors inside the filter's ±2σ (0.955 for an honest σ).
+    pub two_sigma_coverage: f64,
+    /// Mean of `(e/σ)²` (1 for an honest σ).
+    pub normalised_error: f64,
 }
 
 /// One wheelset's scores: left, right, their sum and their difference.
@@ -240,13 +248,16 @@ pub struct WheelsetScore {
     pub difference: Score,
 }
 
-fn score_of(truth: &[f64], estimate: &[f64]) -> Score {
+fn score_of(truth: &[f64], estimate: &[f64], sigma: &[f64]) -> Score {
     let n = truth.len() as f64;
     let mean = truth.iter().sum::<f64>() / n;
+    let honesty = analyzer::consistency::sigma_figures(truth, estimate, sigma);
     Score {
         correlation: analyzer::metrics::correlation(truth, estimate),
         rmse: analyzer::metrics::rmse(truth, estimate),
         dynamic_std: (truth.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt(),
+        two_sigma_coverage: honesty.two_sigma_coverage,
+        normalised_error: honesty.normalised_error.mean_square,
     }
 }
 
@@ -258,12 +269,15 @@ pub fn score(truth: &Truth, estimates: &Estimates, rate: f64, settle: f64) -> [W
     std::array::from_fn(|j| {
         let (l, r) = (left(j), right(j));
         let series = |rows: &[[f64; 8]], f: &dyn Fn(&[f64; 8]) -> f64| rows[skip..].iter().map(f).collect::<Vec<_>>();
-        let pair = |f: &dyn Fn(&[f64; 8]) -> f64| score_of(&series(&truth.contact, f), &series(&estimates.forces, f));
+        let sigma = |rows: &[[f64; 4]]| rows[skip..].iter().map(|s| s[j]).collect::<Vec<_>>();
+        let pair = |f: &dyn Fn(&[f64; 8]) -> f64, sigma: Vec<f64>| {
+            score_of(&series(&truth.contact, f), &series(&estimates.forces, f), &sigma)
+        };
         WheelsetScore {
-            left: pair(&|c| c[l]),
-            right: pair(&|c| c[r]),
-            sum: pair(&|c| c[l] + c[r]),
-            difference: pair(&|c| c[l] - c[r]),
+            left: pair(&|c| c[l], series(&estimates.std, &|s| s[l])),
+            right: pair(&|c| c[r], series(&estimates.std, &|s| s[r])),
+            sum: pair(&|c| c[l] + c[r], sigma(&estimates.sum_std)),
+            difference: pair(&|c| c[l] - c[r], sigma(&estimates.difference_std)),
         }
     })
 }
