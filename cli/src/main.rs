@@ -5,6 +5,7 @@
 //!   kalfmu s1-sweep [--seeds 10] [--noise 0.01,0.02,0.05]
 //!   kalfmu s1-faults [--case stiffness/random] [--shard K/N]
 //!   kalfmu s2-sweep [--speeds 40,80,120,160] [--errors 0.05,0.1] [--rates 200,1000] [--seeds 3] [--shard K/N]
+//!   kalfmu s3-sweep [--cases random,joint] [--speeds 40,80,120,160] [--errors 0.1] [--rates 200,1000] [--seeds 3] [--shard K/N]
 //!   kalfmu s4-compare [--profile paper|high-speed] [--seeds 1] [--filter SRCKF] [--shard K/N]
 //!   kalfmu s5-monte-carlo [--runs 100] [--filters SVD-CKF,CKF] [--shard K/N]
 //!   kalfmu s5-robustness [--seeds 5] [--shard K/N]
@@ -36,6 +37,8 @@ enum Command {
     S1Faults(studies::s1::fault_table::Args),
     /// Study S2 across speeds, vehicle-parameter errors, sampling rates and track seeds.
     S2Sweep(studies::s2::sweep::Args),
+    /// Study S3 across speeds, the user's car-body mass, roll inertia and primary stiffness, rates and seeds.
+    S3Sweep(studies::s3::sweep::Args),
     /// Study S4 in-process: the raw average, the paper's pipeline and ours, scored against the truth.
     S4Compare(studies::s4::compare::Args),
     /// Study S5's filters over many noise seeds: error spread, consistency, Cramér–Rao.
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::S1Sweep(args) => studies::s1::sweep::run(args),
         Command::S1Faults(args) => studies::s1::fault_table::run_command(args),
         Command::S2Sweep(args) => studies::s2::sweep::run(args),
+        Command::S3Sweep(args) => studies::s3::sweep::run(args),
         Command::S4Compare(args) => studies::s4::compare::run(args),
         Command::S5MonteCarlo(args) => studies::s5::monte_carlo::run(args),
         Command::S5Robustness(args) => studies::s5::robustness::run(args),

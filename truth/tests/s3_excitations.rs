@@ -167,7 +167,9 @@ fn a_twist_unloads_a_diagonal() {
 #[test]
 fn every_case_runs_and_records_its_named_channels() {
     let settings = CaseSettings { duration: 1.5, rate: 200.0, ..CaseSettings::default() };
-    let p0 = Vehicle::PASSENGER.static_wheel_load();
+    // The car that runs is the settings' (the catalogue car as built), not the catalogue.
+    let p0 = settings.vehicle.static_wheel_load();
+    assert!(p0 > Vehicle::PASSENGER.static_wheel_load());
     for case in Case::ALL {
         assert_eq!(case.name().parse::<Case>(), Ok(case));
         let truth = cases::simulate(case, &settings).expect("runs");
@@ -203,6 +205,7 @@ fn bad_case_settings_are_refused() {
         CaseSettings { rate: 300.0, ..CaseSettings::default() },
         CaseSettings { noise_fraction: f64::NAN, ..CaseSettings::default() },
         CaseSettings { duration: 0.0, ..CaseSettings::default() },
+        CaseSettings { vehicle: Vehicle { conicity: 0.0, ..cases::as_built() }, ..CaseSettings::default() },
     ] {
         assert!(cases::simulate(Case::Joint, &settings).is_err(), "{settings:?}");
     }

@@ -7,4 +7,9 @@
 //! - The study ([`study`]): the tuning, the paper's force model and ours, a filter run
 //!   in-process and its score per wheel, sum and difference; the estimation model is
 //!   `estimator::models::WheelRailRoll`.
+//! - Through the packaged FMU ([`fmu_run`]), as `kalfmu reproduce` runs it ([`reproduce`]),
+//!   and the sweep of speeds, the user's car and rates ([`sweep`]).
+pub mod fmu_run;
+pub mod reproduce;
 pub mod study;
+pub mod sweep;

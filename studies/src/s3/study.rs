@@ -11,6 +11,7 @@ use estimator::{
     build_filter, Discretized, FilterKind, Gaussian, Noise, Sample, SupervisedFilter, Supervisor, SupervisorSettings,
     UnscentedParams,
 };
+use start_values::SetByName;
 use truth::s3::cases::{Measurements, Settings, Truth, ACCELERATIONS, CONTACT, DEFLECTIONS};
 
 /// How the estimator models the eight forces.
@@ -134,12 +135,123 @@ impl Tuning {
     }
 }
 
+/// The tuning's names for the FMU's parameters it has, besides the sensors'.
+const NAMES: [&str; 6] =
+    ["p0_motion_std", "p0_force_std", "q_body_std", "q_wheelset_std", "force_noise_intensity", "force_return_rate"];
+
+/// The FMU's noise parameter of each sensor, `r_<input>_std`, in the model's row order.
+pub const SENSOR_NOISE_PARAMETERS: [&str; 28] = [
+    "r_a_ab_L1_std",
+    "r_a_ab_R1_std",
+    "r_a_ab_L2_std",
+    "r_a_ab_R2_std",
+    "r_a_ab_L3_std",
+    "r_a_ab_R3_std",
+    "r_a_ab_L4_std",
+    "r_a_ab_R4_std",
+    "r_a_bf_L1_std",
+    "r_a_bf_R1_std",
+    "r_a_bf_L2_std",
+    "r_a_bf_R2_std",
+    "r_a_bf_L3_std",
+    "r_a_bf_R3_std",
+    "r_a_bf_L4_std",
+    "r_a_bf_R4_std",
+    "r_a_cb_FL_std",
+    "r_a_cb_FR_std",
+    "r_a_cb_RL_std",
+    "r_a_cb_RR_std",
+    "r_d_p_L1_std",
+    "r_d_p_R1_std",
+    "r_d_p_L2_std",
+    "r_d_p_R2_std",
+    "r_d_p_L3_std",
+    "r_d_p_R3_std",
+    "r_d_p_L4_std",
+    "r_d_p_R4_std",
+];
+
+impl Tuning {
+    /// The same set-up as the estimator FMU's Real parameters (the sample time aside: it
+    /// is the measurements' clock).
+    pub fn fmu_parameters(&self) -> Vec<(&'static str, f64)> {
+        let values = [
+            self.prior_motion_std,
+            self.prior_force_std,
+            self.body_std,
+            self.wheelset_std,
+            self.force_intensity,
+            self.forces.rate(),
+        ];
+        let mut p: Vec<(&'static str, f64)> = NAMES.into_iter().zip(values).collect();
+        let sensors = self.acceleration_std.iter().chain(&self.deflection_std);
+        p.extend(SENSOR_NOISE_PARAMETERS.into_iter().zip(sensors.copied()));
+        p
+    }
+}
+
+impl SetByName for Tuning {
+    fn takes(name: &str) -> bool {
+        NAMES.contains(&name) || SENSOR_NOISE_PARAMETERS.contains(&name)
+    }
+
+    /// Sets the FMU parameter `name` to `value` as the in-process filter has it. An error
+    /// names what is wrong: a name the tuning does not have (the vehicle's, the static
+    /// wheel load, the supervisor's, `sample_time` are the FMU's only), or a value the FMU
+    /// would refuse too (not finite, negative). A `force_return_rate` of 0 is the paper's
+    /// random walks.
+    fn set(&mut self, name: &str, value: f64) -> Result<(), String> {
+        if !Self::takes(name) {
+            return Err(format!(
+                "'{name}' is not a parameter the in-process S3 filter takes (it takes {} and r_<input>_std)",
+                NAMES.join(", ")
+            ));
+        }
+        if !value.is_finite() || value < 0.0 {
+            return Err(format!("{name} = {value}: not a finite number of at least zero"));
+        }
+        match name {
+            "p0_motion_std" => self.prior_motion_std = value,
+            "p0_force_std" => self.prior_force_std = value,
+            "q_body_std" => self.body_std = value,
+            "q_wheelset_std" => self.wheelset_std = value,
+            "force_noise_intensity" => self.force_intensity = value,
+            "force_return_rate" => {
+                self.forces = if value == 0.0 { ForceModel::RandomWalk } else { ForceModel::Returning(value) }
+            }
+            _ => {
+                let row = SENSOR_NOISE_PARAMETERS.iter().position(|&n| n == name).expect("taken");
+                if row < 20 {
+                    self.acceleration_std[row] = value;
+                } else {
+                    self.deflection_std[row - 20] = value;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The user's car: the catalogue's ([`RollVehicle::zhai_passenger`]) with the static wheel
+/// load as weighed (N).
+pub fn user_vehicle(weighed: f64) -> RollVehicle {
+    RollVehicle { static_wheel_load: weighed, ..RollVehicle::zhai_passenger() }
+}
+
 /// The values of the truth's channels `names` (in the truth's order) in the model's row
 /// order, starting at row `first` of [`WheelRailRoll::MEASUREMENT_NAMES`].
-fn in_model_order<const N: usize>(names: &[&str; N], values: &[f64; N], first: usize) -> [f64; N] {
+pub(crate) fn in_model_order<const N: usize>(names: &[&str; N], values: &[f64; N], first: usize) -> [f64; N] {
     std::array::from_fn(|row| {
         let name = WheelRailRoll::MEASUREMENT_NAMES[first + row];
         values[names.iter().position(|&n| n == name).expect("the truth records every sensor the model reads")]
+    })
+}
+
+/// The truth's eight forces (in [`CONTACT`]'s order) in the model's
+/// ([`WheelRailRoll::FORCE_NAMES`]: `F_NL1, F_NR1, F_NL2, …`).
+pub(crate) fn forces_in_model_order(contact: &[f64; 8]) -> [f64; 8] {
+    std::array::from_fn(|k| {
+        contact[CONTACT.iter().position(|&n| n == WheelRailRoll::FORCE_NAMES[k]).expect("the same eight forces")]
     })
 }
 
@@ -303,12 +415,41 @@ mod tests {
     }
 
     #[test]
+    fn the_fmu_s_names_set_the_tuning_and_come_back_in_its_parameters() {
+        let settings = Settings { duration: 0.2, ..Settings::default() };
+        let measurements = measure(&simulate(Case::Joint, &settings).unwrap(), 0.02, 1);
+        let mut tuning = Tuning::new(&settings, &measurements, ForceModel::Returning(5.0));
+        for (name, value) in [("force_return_rate", 2.0), ("r_d_p_R3_std", 7e-5), ("q_body_std", 1e-4)] {
+            tuning.set(name, value).unwrap();
+            let written = tuning.fmu_parameters().into_iter().find(|(n, _)| *n == name).unwrap();
+            assert_eq!(written.1, value, "{name}");
+        }
+        assert_eq!(
+            tuning.deflection_std[WheelRailRoll::MEASUREMENT_NAMES[20..].iter().position(|&n| n == "d_p_R3").unwrap()],
+            7e-5
+        );
+        tuning.set("force_return_rate", 0.0).unwrap();
+        assert_eq!(tuning.forces, ForceModel::RandomWalk);
+        assert_eq!(tuning.fmu_parameters().len(), 6 + 28);
+        for (row, name) in SENSOR_NOISE_PARAMETERS.iter().enumerate() {
+            assert_eq!(*name, format!("r_{}_std", WheelRailRoll::MEASUREMENT_NAMES[row]));
+        }
+        let before = tuning.clone();
+        for (name, value) in
+            [("car_body_mass", 3e4), ("r_a_ab_L9_std", 0.1), ("q_body_std", -1.0), ("p0_force_std", f64::NAN)]
+        {
+            assert!(tuning.set(name, value).is_err(), "{name} = {value}");
+        }
+        assert_eq!(tuning, before, "a refused value changes nothing");
+    }
+
+    #[test]
     fn a_run_estimates_every_force_in_the_truth_s_order_and_the_sums_follow() {
         let settings = Settings { duration: 1.0, ..Settings::default() };
         let truth = simulate(Case::Joint, &settings).unwrap();
         let measurements = measure(&truth, settings.noise_fraction, settings.seed);
         let tuning = Tuning::new(&settings, &measurements, ForceModel::Returning(5.0));
-        let vehicle = RollVehicle::zhai_passenger();
+        let vehicle = user_vehicle(settings.vehicle.static_wheel_load());
         let estimates = run_filter(FilterKind::SrCkf, vehicle, &tuning, &measurements, Sensors::Accelerations).unwrap();
         assert_eq!(estimates.forces.len(), truth.contact.len());
         for wheelset in score(&truth, &estimates, settings.rate, 0.2) {
