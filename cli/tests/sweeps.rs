@@ -26,6 +26,35 @@ fn the_sweep_prints_a_row_per_case_rate_speed_and_vehicle_and_shards_split_its_r
 }
 
 #[test]
+fn the_s3_sweep_prints_a_row_per_vehicle_and_sensor_set_and_shards_split_its_runs() {
+    let sweep = |shard: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_kalfmu"))
+            .args(["s3-sweep", "--cases", "joint", "--seeds", "2", "--speeds", "80", "--errors", "0.1"])
+            .args(["--rates", "200", "--duration", "1.5", "--shard", shard])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let whole = sweep("1/1");
+    let rows: Vec<&str> = whole.lines().skip(2).collect();
+    assert_eq!(rows.len(), 14, "(catalogue, m_c, I_cx, K_p ∓10 %) × (accelerations, + deflections):\n{whole}");
+    for variant in ["catalogue", "m_c -10 %", "m_c +10 %", "I_cx -10 %", "I_cx +10 %", "K_p -10 %", "K_p +10 %"] {
+        assert_eq!(rows.iter().filter(|r| r.contains(variant)).count(), 2, "{variant}:\n{whole}");
+    }
+    assert!(rows.iter().all(|r| r.contains(" 2 ")), "two seeds per row:\n{whole}");
+    let half = sweep("2/2");
+    assert_eq!(half.lines().skip(2).count(), 14);
+    assert!(half.lines().skip(2).all(|r| r.contains(" 1 ")), "{half}");
+    let refused = std::process::Command::new(env!("CARGO_BIN_EXE_kalfmu"))
+        .args(["s3-sweep", "--cases", "corrugation"])
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2), "a case S3 does not have is refused by the parser");
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("unknown S3 case 'corrugation'"));
+}
+
+#[test]
 fn the_monte_carlo_prints_both_checkpoints_and_shards_split_its_runs() {
     let monte_carlo = |shard: &str| {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_kalfmu"))
