@@ -1,11 +1,14 @@
 //! Cost of one filter cycle — `predict(&[], dt)` then `update(&z)` — for every
-//! filter kind (CKF, SRCKF, SVD-CKF, UKF with α = 1, β = 0, κ = 0, EKF) on two
+//! filter kind (CKF, SRCKF, SVD-CKF, UKF with α = 1, β = 0, κ = 0, EKF) on four
 //! models:
 //!
 //! * `s1_6`: study S1, `Discretized::rk4(Oscillator2DofLoad::new(Oscillator2Dof::stiffness_nonlinear()), 1)`,
 //!   n = 6, m = 2;
 //! * `wheel_rail_24`: study S2, `Discretized::rk4(WheelRailVertical { .. }, 1)` for Zhai's
 //!   passenger car, n = 24, m = 7, with the study's tuning;
+//! * `wheel_rail_roll_42`: study S3, `Discretized::rk4(WheelRailRoll { .. }, 1)` for Zhai's
+//!   passenger car with roll, its forces returning to the static load, n = 42, m = 28 (the
+//!   20 accelerations and the eight deflections), with the study's tuning;
 //! * `missile_20`: study S5, `Discretized::rk4(Missile6Dof { .. }, 1)` for the tactical
 //!   missile with its fins moved as sinusoids of `t`, n = 20, m = 12, with the study's
 //!   tuning,
@@ -43,7 +46,8 @@ use std::time::{Duration, Instant};
 
 use criterion::Criterion;
 use estimator::models::{
-    Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical,
+    Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, RollVehicle, VerticalVehicle, WheelRailRoll,
+    WheelRailVertical,
 };
 use estimator::{
     CubatureKalman, Discretized, ExtendedKalman, FilterError, Gaussian, Model, Noise, Observation, SquareRootCubature,
@@ -342,6 +346,32 @@ fn wheel_rail() -> Case<Discretized<WheelRailVertical>> {
     Case::simulate("wheel_rail_24", model, noise, prior, &x0, &q_true, &[2.5e-3; 7], 3)
 }
 
+/// Study S3: the whole car with roll (Zhai's passenger car), the eight wheel–rail forces
+/// returning to the static load at 5 /s, 20 accelerometers and eight deflection
+/// transducers; the study's tuning (`studies/src/s3/study.rs`).
+fn wheel_rail_roll() -> Case<Discretized<WheelRailRoll>> {
+    let vehicle = RollVehicle::zhai_passenger();
+    let model = Discretized::rk4(WheelRailRoll { vehicle, force_return_rate: 5.0 }, 1);
+    let motion: Vec<f64> = [9e-7 * DT; 9].into_iter().chain([1e-7 * DT; 8]).collect();
+    let q: Vec<f64> = motion.iter().chain(&motion).copied().chain([1e9 * DT; 8]).collect();
+    let r: Vec<f64> = [2.5e-3; 20].into_iter().chain([1e-10; 8]).collect();
+    let noise = Noise::diagonal(&q, &r).expect("valid S3 noise");
+    let mut mean = [0.0; 42];
+    mean[WheelRailRoll::FORCES..].fill(vehicle.static_wheel_load);
+    let prior = Gaussian::diagonal(&mean, &[1e-2; 42]);
+    // The truth starts displaced and moving, its forces off the static load and drifting.
+    let mut x0 = mean;
+    for i in 0..17 {
+        x0[i] = 1e-4 * (i as f64 + 1.0);
+        x0[17 + i] = if i % 2 == 0 { 0.02 } else { -0.01 };
+    }
+    for (j, f) in x0[WheelRailRoll::FORCES..].iter_mut().enumerate() {
+        *f += 1e3 * (j as f64 - 3.5);
+    }
+    let q_true: Vec<f64> = [0.0; 34].into_iter().chain([1e6; 8]).collect();
+    Case::simulate("wheel_rail_roll_42", model, noise, prior, &x0, &q_true, &r, 4)
+}
+
 /// Study S5's 20-state estimation model, `Missile6Dof` for the tactical missile, its fins
 /// moved as fixed sinusoids of `t` (the bench's filters take no inputs; the study's
 /// manoeuvre is a pattern of steps, which costs a step the same).
@@ -397,18 +427,21 @@ fn missile() -> Case<Discretized<MissileWithFins>> {
 }
 
 fn main() {
-    let (s1, wheel_rail, missile) = (s1(), wheel_rail(), missile());
+    let (s1, wheel_rail, wheel_rail_roll, missile) = (s1(), wheel_rail(), wheel_rail_roll(), missile());
 
     s1.for_each_filter(&mut CheckAndCountAllocations);
     wheel_rail.for_each_filter(&mut CheckAndCountAllocations);
+    wheel_rail_roll.for_each_filter(&mut CheckAndCountAllocations);
     missile.for_each_filter(&mut CheckAndCountAllocations);
 
     let mut criterion = Criterion::default().configure_from_args();
     s1.for_each_filter(&mut Bench(&mut criterion));
     wheel_rail.for_each_filter(&mut Bench(&mut criterion));
+    wheel_rail_roll.for_each_filter(&mut Bench(&mut criterion));
     missile.for_each_filter(&mut Bench(&mut criterion));
     bench_supervised(&mut criterion, &s1, &Oscillator2DofLoad::UNKNOWN_INPUTS);
     bench_supervised(&mut criterion, &wheel_rail, &WheelRailVertical::UNKNOWN_INPUTS);
+    bench_supervised(&mut criterion, &wheel_rail_roll, &WheelRailRoll::UNKNOWN_INPUTS);
     bench_supervised(&mut criterion, &missile, &Missile6Dof::UNKNOWN_INPUTS);
     criterion.final_summary();
 }
