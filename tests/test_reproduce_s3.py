@@ -73,9 +73,15 @@ def test_every_case_runs_four_ways_with_every_wheelset_s_four_signals_beside_the
     }
     assert table["units"]["rmse"] == "kN"
     assert table["settings"]["filter"] == "SRCKF" and table["settings"]["quick"] is True
+    # The default seed 1 runs the truth's seed 2: the tuning was chosen on seed 1.
+    assert (table["settings"]["seed"], table["settings"]["tuning_chosen_on_seed"]) == (2, 1)
     assert [c["case"] for c in table["cases"]] == CASES
     for case in table["cases"]:
         assert case["failure"] is None, case
+        # The most a vertical model gives: the sum whole, the difference short of it.
+        assert [len(case["vertical_ceiling"])] == [4]
+        for ceiling in case["vertical_ceiling"]:
+            assert ceiling["sum_correlation"] > 0.9999 and ceiling["difference_correlation"] < 0.999, ceiling
         assert [(r["force_model"], r["sensors"]) for r in case["runs"]] == RUNS
         for run in case["runs"]:
             assert run["failure"] is None, run

@@ -112,7 +112,8 @@ pub struct Args {
     /// unseen cases instead of all; S3: 2 s); the figures are then not the published set-up.
     #[arg(long)]
     pub quick: bool,
-    /// Seed of the random load or track, and of the measurement noise.
+    /// Seed of the random load or track, and of the measurement noise (S3 runs this seed
+    /// plus one: its tuning was chosen on seed 1).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Accelerometer noise as a fraction of each channel's RMS.
@@ -191,7 +192,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
             "s3" => {
                 let settings = truth::s3::cases::Settings {
-                    seed: args.seed,
+                    // Its tuning was chosen on seed 1: the table is of the seeds after it.
+                    seed: args.seed + s3::study::Tuning::CHOSEN_ON_SEED,
                     noise_fraction: args.noise,
                     // The joint reaches the last wheel 1.8 s in.
                     duration: args.duration.unwrap_or(if args.quick {

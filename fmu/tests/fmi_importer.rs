@@ -420,7 +420,7 @@ fn s3_vehicle(s: &Setup) -> RollVehicle {
 /// S3's SRCKF: its vehicle and the forces' return rate, RK4; the motion states'
 /// per-sample variances scaled by `dt / sample_time` (car body and bogies: 9
 /// coordinates, wheelsets: 8), the forces' driving noise `intensity·dt`; `R` from
-/// the sensors' deviations; the prior at equilibrium with the forces at the static
+/// the sensors' deviations, the deflections' with the model's error added; the prior at equilibrium with the forces at the static
 /// wheel load.
 fn s3_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
     let p = |n: &str| s.get(n);
@@ -433,7 +433,8 @@ fn s3_reference(s: &Setup, dt: f64) -> Box<dyn StateEstimator> {
     let (body, wheelset) = (p("q_body_std").powi(2) * fraction, p("q_wheelset_std").powi(2) * fraction);
     let mut q = [[body; 9].as_slice(), &[wheelset; 8], &[body; 9], &[wheelset; 8]].concat();
     q.extend([p("force_noise_intensity") * dt; 8]);
-    let r: Vec<f64> = s.inputs().iter().map(|n| p(&format!("r_{n}_std")).powi(2)).collect();
+    let floor = |n: &str| if n.starts_with("d_p_") { p("deflection_model_error").powi(2) } else { 0.0 };
+    let r: Vec<f64> = s.inputs().iter().map(|n| p(&format!("r_{n}_std")).powi(2) + floor(n)).collect();
     let noise = Noise::diagonal(&q, &r).unwrap();
     let mut mean = [0.0; 42];
     mean[WheelRailRoll::FORCES..].fill(vehicle.static_wheel_load);

@@ -11,9 +11,8 @@
 //!
 //!   cargo run --release -p studies --example s3_explore -- [SEED] [RATE …]
 
-use estimator::models::RollVehicle;
 use estimator::FilterKind;
-use studies::s3::study::{run_filter, score, ForceModel, Sensors, Tuning};
+use studies::s3::study::{run_filter, score, user_vehicle, ForceModel, Sensors, Tuning};
 use truth::s3::cases::{measure, simulate, Case, Settings};
 
 fn main() {
@@ -43,8 +42,12 @@ fn main() {
                 if let Some(s) = env("DEFLECTION_R_SCALE") {
                     tuning.deflection_std = tuning.deflection_std.map(|d| d * s);
                 }
+                if let Some(floor) = env("DEFLECTION_FLOOR") {
+                    tuning.deflection_std = tuning.deflection_std.map(|d| d.hypot(floor));
+                }
                 let label = format!("{:<17} {:<22} {:<14}", case.to_string(), forces.label(), sensors.label());
-                match run_filter(FilterKind::SrCkf, RollVehicle::zhai_passenger(), &tuning, &measurements, sensors) {
+                let vehicle = user_vehicle(settings.vehicle.static_wheel_load());
+                match run_filter(FilterKind::SrCkf, vehicle, &tuning, &measurements, sensors) {
                     Err(e) => println!("{label} failed: {e}"),
                     Ok(estimates) => {
                         let s = score(&truth, &estimates, settings.rate, 0.5);

@@ -24,6 +24,9 @@ use crate::variables::{Parameters, Role, Variable};
 /// intensity of their driving noise (N²/s): the study's tuning (`studies::s3::study`).
 const FORCE_RETURN_RATE: f64 = 5.0;
 const FORCE_NOISE_INTENSITY: f64 = 1e9;
+/// The default error of the model in a primary deflection (m): the study's
+/// (`studies::s3::study`), chosen on one seed of its truth.
+const DEFLECTION_MODEL_ERROR: f64 = 3e-4;
 
 /// One measurement input's variables (literals: a variable's texts live as long as the
 /// program, and a table is built per instance).
@@ -404,6 +407,15 @@ pub(super) fn descriptor() -> Descriptor {
         )
         .bounded(Some(0.0), None),
     ]);
+    v.push(
+        Variable::tunable(
+            "deflection_model_error",
+            "m",
+            DEFLECTION_MODEL_ERROR,
+            "the model's error in a primary deflection (the car as built, its track and lateral motion, which the model has not), added to each deflection sensor's noise",
+        )
+        .bounded(Some(0.0), None),
+    );
     for (row, input) in INPUTS.iter().enumerate() {
         let (unit, std) = if WheelRailRoll::DEFLECTIONS.contains(&row) { ("m", 1e-4) } else { ("m/s2", 0.05) };
         v.push(
@@ -428,7 +440,8 @@ pub(super) fn descriptor() -> Descriptor {
          them random walks, the paper's model. With random walks, the force patterns the suspension balances without moving the car (a \
          roll moment of one wheelset taken by another's through the bogies and the car body) give no acceleration \
          at all: no accelerometer sees them, and their estimate wanders; a positive rate pulls them back to the \
-         static load, primary deflections see them directly. Outputs beyond the forces: per wheelset the sum \
+         static load, primary deflections see them directly. A deflection's noise in R is its sensor's and the \
+         model's error in it, {deflection_model_error}: the model has neither the track nor the lateral motion. Outputs beyond the forces: per wheelset the sum \
          F_NL + F_NR and the difference F_NL - F_NR with their σ from the covariance.</p>\
          <p>Left out, which a real vehicle has: the track (the wheels are driven by the forces alone), all lateral \
          and yaw motion, the contact points' shift with the wheelset's lateral displacement (the contact half span \
@@ -504,7 +517,7 @@ fn build(
 /// `Q` over `dt`: the per-sample motion variances scale with `dt / sample_time` (white
 /// noise; the body's are the car body's and the bogies' nine coordinates and their
 /// velocities, the wheelsets' their eight), the forces' with the intensity; `R` from the
-/// sensors' noise.
+/// sensors' noise, and for the deflections the model's error in them.
 fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
     let fraction = dt / p.positive("sample_time")?;
     let (body, wheelset) = (p.non_negative("q_body_std")?, p.non_negative("q_wheelset_std")?);
@@ -515,8 +528,15 @@ fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
         q.extend([wheelset * wheelset * fraction; 8]);
     }
     q.extend([intensity * dt; 8]);
-    let r: Vec<f64> =
-        INPUTS.iter().map(|input| p.non_negative(input.sensor_std).map(|s| s * s)).collect::<Result<_, _>>()?;
+    let model_error = p.non_negative("deflection_model_error")?;
+    let r: Vec<f64> = INPUTS
+        .iter()
+        .enumerate()
+        .map(|(row, input)| {
+            let floor = if WheelRailRoll::DEFLECTIONS.contains(&row) { model_error } else { 0.0 };
+            p.non_negative(input.sensor_std).map(|s| s * s + floor * floor)
+        })
+        .collect::<Result<_, _>>()?;
     Noise::diagonal(&q, &r).map_err(|e| e.to_string())
 }
 

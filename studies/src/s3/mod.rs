@@ -9,6 +9,7 @@
 //!   `estimator::models::WheelRailRoll`.
 //! - Through the packaged FMU ([`fmu_run`]), as `kalfmu reproduce` runs it ([`reproduce`]),
 //!   and the sweep of speeds, the user's car and rates ([`sweep`]).
+pub mod ceiling;
 pub mod fmu_run;
 pub mod reproduce;
 pub mod study;

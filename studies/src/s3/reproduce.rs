@@ -17,7 +17,10 @@
 //!   the mean σ-normalised squared error (1) with its reading, the run's Σ NIS / Σ rows
 //!   used (1);
 //! - **vs library**: the largest difference between the FMU's forces and the same filter
-//!   run in-process on the same measurements (`study::run_filter`).
+//!   run in-process on the same measurements (`study::run_filter`);
+//! - **ceiling**: per case, the most any vertical model gives ([`ceiling`]): each
+//!   wheelset's equations fed with the truth's noise-free vertical motion and the car's
+//!   true data; what it misses of `L − R` is the lateral dynamics' share.
 //!
 //! Start values (`--set`, `--values`) go to every FMU run; the in-process filter takes
 //! those it has a parameter for ([`Tuning::set`](start_values::SetByName::set)). The
@@ -38,6 +41,7 @@ use log_format::write::ESTIMATE;
 use serde::Serialize;
 use start_values::{SetByName, StartValues};
 
+use super::ceiling::{ceiling, Ceiling};
 use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::study::{forces_in_model_order, run_filter, user_vehicle, ForceModel, Sensors, Tuning};
 use crate::comparison::{compare_case, largest_difference, rows_of, units, write_table};
@@ -125,6 +129,8 @@ pub struct TableSettings {
     pub rate: f64,
     /// Seed of the track and of the noise.
     pub seed: u64,
+    /// The seed the tuning was chosen on, which the table is not of.
+    pub tuning_chosen_on_seed: u64,
     /// Sensor noise as a fraction of each channel's RMS.
     pub noise_fraction: f64,
     /// Figures are taken from this time on (s).
@@ -146,6 +152,8 @@ pub struct CaseFigures {
     pub case: String,
     /// Why the case's runs could not be compared, if they could not.
     pub failure: Option<String>,
+    /// The most a vertical model gives, per wheelset ([`ceiling`]).
+    pub vertical_ceiling: Vec<Ceiling>,
     /// One entry per force model and sensor set.
     pub runs: Vec<RunFigures>,
 }
@@ -329,7 +337,8 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
         Ok(rrd) => (None, Some(rrd)),
         Err(e) => (Some(format!("{e:#}")), None),
     };
-    (CaseFigures { case: case.to_string(), failure, runs: figures }, recording)
+    let vertical_ceiling = ceiling(truth, &settings.vehicle, settings.rate, SETTLE).to_vec();
+    (CaseFigures { case: case.to_string(), failure, vertical_ceiling, runs: figures }, recording)
 }
 
 /// The lowest of a figure over the four wheelsets.
@@ -365,11 +374,13 @@ pub fn report(
     let catalogue = user_vehicle(settings.vehicle.static_wheel_load());
     println!(
         "S3: left and right wheel-rail forces of a whole car, 17-DOF vehicle with roll + 8 forces (42 states) — {:.0} \
-         km/h, {} s at {} Hz, German low-interference track (seed {}), sensor noise {:.1} % of RMS",
+         km/h, {} s at {} Hz, German low-interference track (seed {}; the tuning was chosen on seed {}), sensor noise \
+         {:.1} % of RMS",
         settings.speed * 3.6,
         settings.duration,
         settings.rate,
         settings.seed,
+        Tuning::CHOSEN_ON_SEED,
         100.0 * settings.noise_fraction
     );
     if let Some(line) = start_values.header(&fmu_only) {
@@ -414,6 +425,7 @@ pub fn report(
             duration: settings.duration,
             rate: settings.rate,
             seed: settings.seed,
+            tuning_chosen_on_seed: Tuning::CHOSEN_ON_SEED,
             noise_fraction: settings.noise_fraction,
             settle: SETTLE,
             filter: FILTER.name(),
@@ -445,7 +457,8 @@ fn summary_table(cases: &[CaseFigures]) -> String {
         out,
         "after {SETTLE} s, the lowest of the four wheelsets; RMSE of wheelset 1's left force and the largest of the \
          eight; 2σ: the lowest share of errors inside the FMU's ±2σ of the 16 signals (L, R, sum, L−R); (e/σ)²: the \
-         signal farthest from 1:"
+         signal farthest from 1; ceiling: the most any vertical model gives, its equations fed with the true vertical \
+         motion (what it misses is the lateral dynamics'):"
     );
     let _ = writeln!(
         out,
@@ -481,6 +494,18 @@ fn summary_table(cases: &[CaseFigures]) -> String {
         if let Some(e) = &case.failure {
             let _ = writeln!(out, "{:<17} FAILED to compare: {e}", case.case);
         }
+        let ceiling_lowest = |f: fn(&Ceiling) -> f64| case.vertical_ceiling.iter().map(f).fold(f64::INFINITY, f64::min);
+        let _ = writeln!(
+            out,
+            "{:<17} {:<20} {:<14} {:>6.3} {:>6.3} {:>7.4} {:>6.3}",
+            case.case,
+            "ceiling: vertical",
+            "true motion",
+            ceiling_lowest(|c| c.left_correlation),
+            ceiling_lowest(|c| c.right_correlation),
+            ceiling_lowest(|c| c.sum_correlation),
+            ceiling_lowest(|c| c.difference_correlation),
+        );
         for run in &case.runs {
             let label = format!("{:<17} {:<20} {:<14}", case.case, run.force_model, run.sensors);
             if let Some(e) = &run.failure {

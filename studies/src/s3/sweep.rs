@@ -33,7 +33,8 @@ pub struct Args {
     /// Sampling rates (Hz).
     #[arg(long, value_delimiter = ',', default_values_t = vec![200.0, 1000.0])]
     pub rates: Vec<f64>,
-    /// Number of track and noise seeds (2 … N + 1: the study's tuning was chosen on seed 1).
+    /// Number of track and noise seeds (2 … N + 1: the study's tuning was chosen on seed 1,
+    /// `study::Tuning::CHOSEN_ON_SEED`).
     #[arg(long, default_value_t = 3)]
     pub seeds: u64,
     /// Simulated time per run (s).
@@ -138,7 +139,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     if variant != Variant::Catalogue && speed != 80.0 {
                         continue;
                     }
-                    for seed in 2..args.seeds + 2 {
+                    for seed in Tuning::CHOSEN_ON_SEED + 1..=Tuning::CHOSEN_ON_SEED + args.seeds {
                         jobs.push(Job { row: Row { case, speed, rate, variant }, seed });
                     }
                 }
@@ -174,7 +175,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         built.vertical.car_body_mass,
         built.car_body_roll_inertia,
         built.vertical.primary_stiffness / 1e6,
-        args.seeds + 1,
+        Tuning::CHOSEN_ON_SEED + args.seeds,
         args.duration
     );
     if !start_values.is_empty() {
