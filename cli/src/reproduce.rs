@@ -8,7 +8,7 @@
 //! # The tables as JSON
 //!
 //! Each study also writes the figures of the table it prints as `<out>/<study>/table.json`
-//! (`out/s1/table.json`, `out/s2/…`, `out/s4/…`, `out/s5/…`), beside its logs, so that
+//! (`out/s1/table.json`, `out/s2/…`, `out/s3/…`, `out/s4/…`, `out/s5/…`), beside its logs, so that
 //! scripts and tests need not parse the printed text. The numbers are full precision, not
 //! the printed digits; a figure that is not a number is `null`, and so is one a run could
 //! not give (its entry's `failure` then says why). Every file has `study` (`"S1"`, …) and
@@ -63,6 +63,20 @@
 //!   `rmse_over_dynamic_std`, `weld_peak_error`, `psd_agreement_band`,
 //!   `two_sigma_coverage`, `after_step_correlation`, `one_sigma_coverage`,
 //!   `normalised_error`) and `nis`.
+//! - **S3** (`studies::s3::reproduce::Table`): `settings` (`speed`, `duration`, `rate`,
+//!   `seed`: the truth's, `--seed` plus one, `tuning_chosen_on_seed` 1, `noise_fraction`,
+//!   `settle`, `filter` `SRCKF`, `quick`, `start_values`, `start_values_fmu_only`);
+//!   `paper` (`left_correlation_min`, `right_correlation_min`, `sum_correlation`,
+//!   `rmse_left_1`); `cases[]` (`random`, `joint`, `twist`, `random_alignment`), each with
+//!   `case`, `failure`, `vertical_ceiling[]` (per wheelset the most a vertical model gives,
+//!   `left_correlation`, `right_correlation`, `sum_correlation`,
+//!   `difference_correlation`) and `runs[]`, the paper's random walks and ours with the
+//!   accelerations alone and with the deflections: `force_model` (`random walk` or
+//!   `returning`), `force_return_rate`, `sensors` (`accelerations` or `+ deflections`),
+//!   `failure`, `rejected_rows`, `fmu_vs_in_process_max_abs_difference`, `nis` and
+//!   `wheelsets[]` (`wheelset` 1–4 with `left`, `right`, `sum` and `difference`, each
+//!   `correlation`, `rmse`, and the σ figures). Logs `<case>_<paper|ours>_<accelerations|
+//!   deflections>.mcap`, comparisons `<case>.json`, `<case>.rrd`.
 //! - **S4** (`studies::s4::reproduce::Table`): `seed`; `settings` (`seed`, `quick`,
 //!   `start_values`, the values given by name, and `start_values_fmu_only`, those the
 //!   in-process filter does not take); `paper` (`mean_abs_error_reduction_from_raw`,
