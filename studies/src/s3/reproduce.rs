@@ -363,6 +363,7 @@ pub fn report(
     out: &Path,
 ) -> anyhow::Result<usize> {
     let fmu = ImportedFmu::load_packaged(fmu_dir, IDENTIFIER)?;
+    // A misspelt name or a value of the wrong type costs no run …
     fmu.check_start_values(start_values)?;
     // … nor one the in-process filter would refuse; the names it has no parameter for
     // reach the FMU only.

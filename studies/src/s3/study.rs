@@ -104,8 +104,9 @@ impl Tuning {
     /// (`examples/s3_explore.rs`, `DEFLECTION_FLOOR`): the truth's deflections carry the
     /// car as built, its track and its lateral motion, which the model has not, and 2 % of
     /// a deflection's RMS (tens of µm) made the gate reject thousands of rows and the
-    /// filter trust the deflections over the accelerations; 0.1 mm still rejected rows, 0.3
-    /// and 1 mm did not, 0.3 separated the sides best. The FMU's default.
+    /// filter trust the deflections over the accelerations; that σ ×3 to ×30
+    /// (`DEFLECTION_R_SCALE`) still rejected hundreds of rows on the joint, a floor of 0.3,
+    /// 1 and 3 mm none, and 0.3 mm separated the sides best. The FMU's default.
     pub const DEFLECTION_MODEL_ERROR: f64 = 3e-4;
 
     /// The set-up for `settings` and the recorded noise of `measurements` (the sensors'
