@@ -1,6 +1,8 @@
 //! Nonlinear Kalman filters for virtual sensors: the cubature Kalman filter
 //! (CKF), its square-root (SRCKF) and SVD forms, the scaled unscented filter
-//! (UKF) and a finite-difference EKF, on any state-space model.
+//! (UKF) and a finite-difference EKF, on any state-space model; and the
+//! fixed-interval (RTS) smoother of their runs, [`smooth`], its cross-covariances
+//! by each filter's own rule ([`cross_covariance`], [`linearised_cross_covariance`]).
 //!
 //! Problems are separate from solvers: a model implements [`Process`] and
 //! [`Observation`] (or [`VectorField`] + [`Observation`], discretised by
@@ -44,6 +46,7 @@ mod linalg;
 mod model;
 mod noise;
 mod points;
+mod smoother;
 mod supervised;
 mod supervisor;
 
@@ -65,5 +68,6 @@ pub use linalg::{
 pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
+pub use smoother::{cross_covariance, linearised_cross_covariance, smooth, SmoothingStep};
 pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};
 pub use supervisor::{Channel, FaultChange, Outcome, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings};
