@@ -68,6 +68,8 @@ pub use linalg::{
 pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
-pub use smoother::{cross_covariance, linearised_cross_covariance, smooth, SmoothingStep};
+pub use smoother::{
+    cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, SmoothingStep, SquareRootStep,
+};
 pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};
 pub use supervisor::{Channel, FaultChange, Outcome, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings};

@@ -14,6 +14,12 @@
 //!
 //! Backward: `G = C·P⁻⁻¹`, `m_s = m + G·(m_s' − m⁻)`, `P_s = P + G·(P_s' − P⁻)·Gᵀ`, from the
 //! last filtered Gaussian (which is its own smoothed one) to the first.
+//!
+//! The square-root form, for the SRCKF ([`smooth_square_root`], the square-root cubature
+//! smoother of `[Arasaratnam2011]`), never forms a covariance: with `X` and `Y` the
+//! weighted, centred points before and after the transition (`P = X·Xᵀ`, `C = X·Yᵀ`,
+//! `P⁻ = Y·Yᵀ + S_Q·S_Qᵀ`), `G` comes from two triangular solves with `S⁻` and the
+//! smoothed root is `Tria([X − G·Y, G·S_Q, G·S_s'])`, whose product is `P_s` above.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -142,6 +148,110 @@ pub fn smooth(steps: &[SmoothingStep], last: &Gaussian) -> Result<Vec<Gaussian>,
         // Symmetric to rounding.
         covariance = (&covariance + covariance.transpose()) * 0.5;
         smoothed[k] = Gaussian { mean, covariance };
+    }
+    Ok(smoothed)
+}
+
+/// What the square-root backward pass needs of one filter step from `t_k` to `t_{k+1}`:
+/// roots (any square roots, `P = S·Sᵀ`), never covariances.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SquareRootStep {
+    /// The filtered mean at `t_k`.
+    pub filtered_mean: DVector<f64>,
+    /// A root of the filtered covariance, the filter's own (its points are taken from it).
+    pub filtered_root: DMatrix<f64>,
+    /// The predicted mean at `t_{k+1}`, before the update there.
+    pub predicted_mean: DVector<f64>,
+    /// A lower-triangular root of the predicted covariance.
+    pub predicted_root: DMatrix<f64>,
+    /// A root of the process noise of the step.
+    pub process_noise_root: DMatrix<f64>,
+    /// The step's start `t_k` (s).
+    pub t: f64,
+    /// The step's length (s).
+    pub dt: f64,
+    /// The inputs held over it.
+    pub u: Vec<f64>,
+}
+
+/// `Tria(A)`: a lower-triangular `n × n` root of `A·Aᵀ`, from the QR factors of `Aᵀ`.
+fn tria(a: DMatrix<f64>) -> DMatrix<f64> {
+    let n = a.nrows();
+    let r = a.transpose().qr().r();
+    let mut root = DMatrix::zeros(n, n);
+    let rows = r.nrows().min(n);
+    root.view_mut((0, 0), (n, rows)).copy_from(&r.rows(0, rows).transpose());
+    root
+}
+
+/// The square-root smoothed means and lower-triangular roots at `t_0 … t_N` from the `N`
+/// steps of a filter run with the point rule `points` and its filtered mean and root at
+/// `t_N`. Fails if dimensions disagree or a predicted root is singular.
+pub fn smooth_square_root(
+    process: &mut impl Process,
+    points: &SigmaPoints,
+    steps: &[SquareRootStep],
+    last: (&DVector<f64>, &DMatrix<f64>),
+) -> Result<Vec<(DVector<f64>, DMatrix<f64>)>, FilterError> {
+    let n = last.0.len();
+    if points.state_dim() != n || process.state_dim() != n || points.center().is_some_and(|c| c.covariance < 0.0) {
+        return Err(FilterError::InvalidSetting(format!(
+            "a square-root smoother of {n} states needs a process of as many and points of non-negative weights"
+        )));
+    }
+    let mut smoothed = vec![(last.0.clone(), last.1.clone()); steps.len() + 1];
+    let mut next = vec![0.0; n];
+    for (k, step) in steps.iter().enumerate().rev() {
+        let square = |m: &DMatrix<f64>| m.nrows() == n && m.ncols() == n;
+        let fits = step.filtered_mean.len() == n
+            && step.predicted_mean.len() == n
+            && square(&step.filtered_root)
+            && square(&step.predicted_root)
+            && step.process_noise_root.nrows() == n;
+        if !fits {
+            return Err(FilterError::InvalidSetting(format!("square-root smoothing step {k} is not of {n} states")));
+        }
+        // The points, weighted and centred, before (X) and after (Y) the transition.
+        let count = points.len();
+        let c = points.spread();
+        let mut before = DMatrix::zeros(n, count);
+        let mut after = DMatrix::zeros(n, count);
+        let mut predicted_mean = DVector::zeros(n);
+        for i in 0..count {
+            let offset: DVector<f64> = match i {
+                i if i < n => step.filtered_root.column(i) * c,
+                i if i < 2 * n => -step.filtered_root.column(i - n) * c,
+                _ => DVector::zeros(n),
+            };
+            let x = &step.filtered_mean + &offset;
+            process.transition(step.t, step.dt, x.as_slice(), &step.u, &mut next);
+            let y = DVector::from_column_slice(&next);
+            predicted_mean += &y * points.mean_weight(i);
+            let root_weight = points.covariance_weight(i).sqrt();
+            before.set_column(i, &(offset * root_weight));
+            after.set_column(i, &(y * root_weight));
+        }
+        for i in 0..count {
+            let weight = points.covariance_weight(i).sqrt();
+            let centred = after.column(i) - &predicted_mean * weight;
+            after.set_column(i, &centred);
+        }
+        // G from S⁻·S⁻ᵀ·Gᵀ = Cᵀ = Y·Xᵀ: two triangular solves.
+        let cross_transposed = &after * before.transpose();
+        let singular = || FilterError::InvalidSetting(format!("the predicted root of step {k} is singular"));
+        let half = step.predicted_root.solve_lower_triangular(&cross_transposed).ok_or_else(singular)?;
+        let gain = step.predicted_root.tr_solve_lower_triangular(&half).ok_or_else(singular)?.transpose();
+        let (after_mean, after_root) = &smoothed[k + 1];
+        let mean = &step.filtered_mean + &gain * (after_mean - &step.predicted_mean);
+        let compound = DMatrix::from_columns(
+            &(&before - &gain * &after)
+                .column_iter()
+                .chain((&gain * &step.process_noise_root).column_iter())
+                .chain((&gain * after_root).column_iter())
+                .map(|c| c.into_owned())
+                .collect::<Vec<_>>(),
+        );
+        smoothed[k] = (mean, tria(compound));
     }
     Ok(smoothed)
 }

@@ -7,8 +7,8 @@
 
 use estimator::models::Oscillator2DofLoad;
 use estimator::{
-    cross_covariance, linearised_cross_covariance, smooth, Discretized, FilterKind, Gaussian, SigmaPoints,
-    SmoothingStep, SupervisedFilter, Supervisor, SupervisorSettings,
+    cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, Discretized, FilterKind, Gaussian,
+    SigmaPoints, SmoothingStep, SquareRootStep, SupervisedFilter, Supervisor, SupervisorSettings,
 };
 use studies::s1::Tuning;
 use truth::s1::{simulate, Case, Settings};
@@ -150,5 +150,67 @@ fn a_row_the_gate_rejected_stays_out_of_the_smoothed_pass() {
             a.mean[load],
             b.mean[load]
         );
+    }
+}
+
+#[test]
+fn the_square_root_smoother_of_the_srckf_is_the_covariance_form_to_rounding() {
+    let settings = Settings { duration: 5.0, noise_fraction: 0.05, seed: 3, ..Settings::default() };
+    for case in ["stiffness/random", "damping/harmonic"] {
+        let case: Case = case.parse().unwrap();
+        let (_, measurements) = simulate(&case, &settings);
+        let tuning = Tuning::new(&settings, measurements.noise_std);
+        let mut filter = tuning.filter(FilterKind::SrCkf, &case, tuning.noise()).unwrap();
+        let q_root = filter.noise().q_sqrt().clone();
+        let root = |f: &dyn estimator::StateEstimator| f.sqrt_covariance().expect("the SRCKF keeps a root").clone();
+        let (mut root_steps, mut steps) = (Vec::new(), Vec::new());
+        let mut last: Option<(nalgebra::DVector<f64>, nalgebra::DMatrix<f64>)> = None;
+        let mut process = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), tuning.rk4_substeps);
+        for (k, z) in measurements.acceleration.iter().enumerate() {
+            let t = k as f64 * settings.dt();
+            if let Some((mean, s)) = last.take() {
+                filter.predict(&[], settings.dt()).unwrap();
+                let filtered = Gaussian { mean: mean.clone(), covariance: &s * s.transpose() };
+                let predicted = Gaussian { mean: filter.mean().clone(), covariance: filter.covariance() };
+                let points = SigmaPoints::cubature(6);
+                let dt = settings.dt();
+                let cross = cross_covariance(&mut process, &points, &filtered, t - dt, dt, &[]).unwrap();
+                steps.push(SmoothingStep { filtered, predicted, cross });
+                root_steps.push(SquareRootStep {
+                    filtered_mean: mean,
+                    filtered_root: s,
+                    predicted_mean: filter.mean().clone(),
+                    predicted_root: root(filter.as_ref()),
+                    process_noise_root: q_root.clone(),
+                    t: t - dt,
+                    dt,
+                    u: Vec::new(),
+                });
+            }
+            filter.update(z).unwrap();
+            last = Some((filter.mean().clone(), root(filter.as_ref())));
+        }
+        let (mean, s) = last.unwrap();
+        let covariance_form = smooth(&steps, &Gaussian { mean: mean.clone(), covariance: &s * s.transpose() }).unwrap();
+        let square_root =
+            smooth_square_root(&mut process, &SigmaPoints::cubature(6), &root_steps, (&mean, &s)).unwrap();
+        for (k, (g, (m, r))) in covariance_form.iter().zip(&square_root).enumerate() {
+            let p = r * r.transpose();
+            for i in 0..6 {
+                let scale = g.covariance[(i, i)].sqrt();
+                assert!(
+                    (m[i] - g.mean[i]).abs() <= 1e-6 * scale,
+                    "{case} sample {k} state {i}: {} vs {}",
+                    m[i],
+                    g.mean[i]
+                );
+                assert!(
+                    (p[(i, i)] / g.covariance[(i, i)] - 1.0).abs() < 1e-6,
+                    "{case} sample {k} state {i}: variance {} vs {}",
+                    p[(i, i)],
+                    g.covariance[(i, i)]
+                );
+            }
+        }
     }
 }
