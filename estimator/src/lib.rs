@@ -69,7 +69,8 @@ pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINT
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
 pub use smoother::{
-    cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, SmoothingStep, SquareRootStep,
+    cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, RootGaussian, SmoothingStep,
+    SquareRootStep,
 };
 pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};
 pub use supervisor::{Channel, FaultChange, Outcome, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings};

@@ -174,6 +174,15 @@ pub struct SquareRootStep {
     pub u: Vec<f64>,
 }
 
+/// A Gaussian by its mean and a root of its covariance, `P = S·Sᵀ`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RootGaussian {
+    /// The mean.
+    pub mean: DVector<f64>,
+    /// A root of the covariance.
+    pub root: DMatrix<f64>,
+}
+
 /// `Tria(A)`: a lower-triangular `n × n` root of `A·Aᵀ`, from the QR factors of `Aᵀ`.
 fn tria(a: DMatrix<f64>) -> DMatrix<f64> {
     let n = a.nrows();
@@ -191,15 +200,15 @@ pub fn smooth_square_root(
     process: &mut impl Process,
     points: &SigmaPoints,
     steps: &[SquareRootStep],
-    last: (&DVector<f64>, &DMatrix<f64>),
-) -> Result<Vec<(DVector<f64>, DMatrix<f64>)>, FilterError> {
-    let n = last.0.len();
+    last: &RootGaussian,
+) -> Result<Vec<RootGaussian>, FilterError> {
+    let n = last.mean.len();
     if points.state_dim() != n || process.state_dim() != n || points.center().is_some_and(|c| c.covariance < 0.0) {
         return Err(FilterError::InvalidSetting(format!(
             "a square-root smoother of {n} states needs a process of as many and points of non-negative weights"
         )));
     }
-    let mut smoothed = vec![(last.0.clone(), last.1.clone()); steps.len() + 1];
+    let mut smoothed = vec![last.clone(); steps.len() + 1];
     let mut next = vec![0.0; n];
     for (k, step) in steps.iter().enumerate().rev() {
         let square = |m: &DMatrix<f64>| m.nrows() == n && m.ncols() == n;
@@ -241,7 +250,7 @@ pub fn smooth_square_root(
         let singular = || FilterError::InvalidSetting(format!("the predicted root of step {k} is singular"));
         let half = step.predicted_root.solve_lower_triangular(&cross_transposed).ok_or_else(singular)?;
         let gain = step.predicted_root.tr_solve_lower_triangular(&half).ok_or_else(singular)?.transpose();
-        let (after_mean, after_root) = &smoothed[k + 1];
+        let RootGaussian { mean: after_mean, root: after_root } = &smoothed[k + 1];
         let mean = &step.filtered_mean + &gain * (after_mean - &step.predicted_mean);
         let compound = DMatrix::from_columns(
             &(&before - &gain * &after)
@@ -251,7 +260,7 @@ pub fn smooth_square_root(
                 .map(|c| c.into_owned())
                 .collect::<Vec<_>>(),
         );
-        smoothed[k] = (mean, tria(compound));
+        smoothed[k] = RootGaussian { mean, root: tria(compound) };
     }
     Ok(smoothed)
 }
