@@ -1,16 +1,16 @@
 //! Fixed-interval smoothing: the Rauch–Tung–Striebel backward pass `[Rauch1965]` in its
 //! sigma-point form (the cubature Kalman smoother `[Arasaratnam2011]`, the unscented RTS
-//! smoother `[Sarkka2008]`), which needs of each step only the filtered Gaussian at `t_k`, the predicted
-//! one at `t_{k+1}` as the filter had it before its update there, and the
+//! smoother `[Sarkka2008]`), which needs of each step only the filtered Gaussian at `t_k`,
+//! the predicted one at `t_{k+1}` as the filter had it before its update there, and the
 //! cross-covariance `C = Cov(x_k, x_{k+1} | z_1…z_k)`.
 //!
 //! [`cross_covariance`] gives `C` for any [`Process`] from the filtered Gaussian by the
 //! filter's own point rule: the points of `N(m_k, P_k)` through one transition, as the
-//! filter's prediction moved them; [`linearised_cross_covariance`] gives the EKF's,
-//! `P·Fᵀ` with `F` the transition's Jacobian by the EKF's central differences. The predicted Gaussian is taken as the filter had it,
-//! after whatever the supervisor did to it (a jump's inflated covariance then loosens the
-//! link across the jump, as it should); a row the gate rejected is in no filtered
-//! Gaussian, so it stays out of the smoothed one.
+//! filter's prediction moved them; [`linearised_cross_covariance`] gives the EKF's, `P·Fᵀ`
+//! with `F` the transition's Jacobian by the EKF's central differences. The predicted
+//! Gaussian is taken as the filter had it, after whatever the supervisor did to it (a
+//! jump's inflated covariance then loosens the link across the jump, as it should); a row
+//! the gate rejected is in no filtered Gaussian, so it stays out of the smoothed one.
 //!
 //! Backward: `G = C·P⁻⁻¹`, `m_s = m + G·(m_s' − m⁻)`, `P_s = P + G·(P_s' − P⁻)·Gᵀ`, from the
 //! last filtered Gaussian (which is its own smoothed one) to the first.
@@ -164,7 +164,8 @@ pub struct SquareRootStep {
     pub predicted_mean: DVector<f64>,
     /// A lower-triangular root of the predicted covariance.
     pub predicted_root: DMatrix<f64>,
-    /// A root of the process noise of the step.
+    /// A root of what the predicted covariance holds beyond the points' spread: the
+    /// step's process noise as the filter had it (its adapted scale included).
     pub process_noise_root: DMatrix<f64>,
     /// The step's start `t_k` (s).
     pub t: f64,
