@@ -65,24 +65,42 @@ pub fn cross_covariance(
         .cholesky()
         .ok_or_else(|| FilterError::InvalidSetting("a filtered covariance that is not positive definite".into()))?
         .l();
-    let c = points.spread();
-    let mut offsets: Vec<DVector<f64>> = (0..n).map(|j| root.column(j) * c).collect();
-    offsets.extend((0..n).map(|j| -root.column(j) * c));
-    if points.center().is_some() {
-        offsets.push(DVector::zeros(n));
+    let (offsets, deviations) = deviations(process, points, &filtered.mean, &root, t, dt, u);
+    let weights = DVector::from_iterator(points.len(), (0..points.len()).map(|i| points.covariance_weight(i)));
+    Ok(offsets * DMatrix::from_diagonal(&weights) * deviations.transpose())
+}
+
+/// The points of the rule `points` about `mean` with the root `root` (`m ± c·S·eⱼ`, then
+/// the centre), as offsets from the mean (`n × points`), and their images after one
+/// transition as deviations from the images' weighted mean.
+fn deviations(
+    process: &mut impl Process,
+    points: &SigmaPoints,
+    mean: &DVector<f64>,
+    root: &DMatrix<f64>,
+    t: f64,
+    dt: f64,
+    u: &[f64],
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, count, c) = (mean.len(), points.len(), points.spread());
+    let mut offsets = DMatrix::zeros(n, count);
+    for j in 0..n {
+        offsets.set_column(j, &(root.column(j) * c));
+        offsets.set_column(n + j, &(-root.column(j) * c));
     }
-    let mut propagated = Vec::with_capacity(offsets.len());
+    let mut images = DMatrix::zeros(n, count);
     let mut next = vec![0.0; n];
-    for offset in &offsets {
-        let x = &filtered.mean + offset;
+    for i in 0..count {
+        let x = mean + offsets.column(i);
         process.transition(t, dt, x.as_slice(), u, &mut next);
-        propagated.push(DVector::from_column_slice(&next));
+        images.set_column(i, &DVector::from_column_slice(&next));
     }
-    let predicted_mean =
-        propagated.iter().enumerate().fold(DVector::zeros(n), |m, (i, y)| m + y * points.mean_weight(i));
-    Ok(offsets.iter().zip(&propagated).enumerate().fold(DMatrix::zeros(n, n), |c, (i, (dx, y))| {
-        c + dx * (y - &predicted_mean).transpose() * points.covariance_weight(i)
-    }))
+    let image_mean = (0..count).fold(DVector::zeros(n), |m, i| m + images.column(i) * points.mean_weight(i));
+    for i in 0..count {
+        let centred = images.column(i) - &image_mean;
+        images.set_column(i, &centred);
+    }
+    (offsets, images)
 }
 
 /// The EKF's cross-covariance `P·Fᵀ`, `F = ∂φ/∂x` at the filtered mean by central
@@ -210,7 +228,6 @@ pub fn smooth_square_root(
         )));
     }
     let mut smoothed = vec![last.clone(); steps.len() + 1];
-    let mut next = vec![0.0; n];
     for (k, step) in steps.iter().enumerate().rev() {
         let square = |m: &DMatrix<f64>| m.nrows() == n && m.ncols() == n;
         let fits = step.filtered_mean.len() == n
@@ -222,29 +239,12 @@ pub fn smooth_square_root(
             return Err(FilterError::InvalidSetting(format!("square-root smoothing step {k} is not of {n} states")));
         }
         // The points, weighted and centred, before (X) and after (Y) the transition.
-        let count = points.len();
-        let c = points.spread();
-        let mut before = DMatrix::zeros(n, count);
-        let mut after = DMatrix::zeros(n, count);
-        let mut predicted_mean = DVector::zeros(n);
-        for i in 0..count {
-            let offset: DVector<f64> = match i {
-                i if i < n => step.filtered_root.column(i) * c,
-                i if i < 2 * n => -step.filtered_root.column(i - n) * c,
-                _ => DVector::zeros(n),
-            };
-            let x = &step.filtered_mean + &offset;
-            process.transition(step.t, step.dt, x.as_slice(), &step.u, &mut next);
-            let y = DVector::from_column_slice(&next);
-            predicted_mean += &y * points.mean_weight(i);
-            let root_weight = points.covariance_weight(i).sqrt();
-            before.set_column(i, &(offset * root_weight));
-            after.set_column(i, &(y * root_weight));
-        }
-        for i in 0..count {
+        let (mut before, mut after) =
+            deviations(process, points, &step.filtered_mean, &step.filtered_root, step.t, step.dt, &step.u);
+        for i in 0..points.len() {
             let weight = points.covariance_weight(i).sqrt();
-            let centred = after.column(i) - &predicted_mean * weight;
-            after.set_column(i, &centred);
+            before.column_mut(i).scale_mut(weight);
+            after.column_mut(i).scale_mut(weight);
         }
         // G from S⁻·S⁻ᵀ·Gᵀ = Cᵀ = Y·Xᵀ: two triangular solves.
         let cross_transposed = &after * before.transpose();

@@ -8,6 +8,7 @@
 //! - behind the supervisor, a row its gate rejected stays out of the smoothed pass;
 //! - the square-root form, from the SRCKF's roots, is the covariance form to rounding.
 
+use analyzer::metrics::{correlation, rmse};
 use estimator::models::Oscillator2DofLoad;
 use estimator::{
     cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, Discretized, FilterKind, Gaussian,
@@ -32,18 +33,6 @@ fn run(kind: FilterKind, case: &Case, settings: &Settings) -> (Vec<f64>, Vec<Gau
         filtered.push(Gaussian { mean: filter.mean().clone(), covariance: filter.covariance() });
     }
     (truth.load, filtered, predicted, tuning)
-}
-
-fn rmse(truth: &[f64], estimate: &[f64]) -> f64 {
-    (truth.iter().zip(estimate).map(|(t, e)| (t - e).powi(2)).sum::<f64>() / truth.len() as f64).sqrt()
-}
-
-fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len() as f64;
-    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
-    let (va, vb): (f64, f64) = (a.iter().map(|x| (x - ma).powi(2)).sum(), b.iter().map(|y| (y - mb).powi(2)).sum());
-    cov / (va * vb).sqrt()
 }
 
 #[test]

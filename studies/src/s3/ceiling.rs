@@ -8,6 +8,7 @@
 //! not separate the sides better than this; it measures how far the lateral dynamics
 //! limit them, case by case.
 
+use truth::s2::vehicle::VehicleModel;
 use truth::s3::cases::{Truth, ACCELERATIONS, DEFLECTIONS};
 use truth::s3::parameters::Vehicle;
 
@@ -27,22 +28,12 @@ pub struct Ceiling {
     pub difference_correlation: f64,
 }
 
-/// The primary damper's force (N) at the compression rate `rate` (m/s): the truth's law.
-fn damper(vehicle: &Vehicle, rate: f64) -> f64 {
-    let v = &vehicle.vertical;
-    if rate.abs() <= v.primary_damper_knee {
-        v.primary_damping * rate
-    } else {
-        rate.signum()
-            * (v.primary_damping * v.primary_damper_knee
-                + v.primary_damping_beyond * (rate.abs() - v.primary_damper_knee))
-    }
-}
-
 /// Each wheelset's ceiling over the samples from `settle` seconds on, for `truth` recorded
 /// at `rate` (Hz) on the car `vehicle` (the one that ran).
 pub fn ceiling(truth: &Truth, vehicle: &Vehicle, rate: f64, settle: f64) -> [Ceiling; 4] {
     let v = &vehicle.vertical;
+    // The truth's own damper law, odd in the rate: compression or extension alike.
+    let primary = VehicleModel { vehicle: *v };
     let (mass, inertia) = (v.wheelset_mass, vehicle.wheelset_roll_inertia);
     let (dw, a0, weight) = (vehicle.primary_half_span, vehicle.contact_half_span, vehicle.static_wheel_load());
     let n = truth.time.len();
@@ -59,7 +50,7 @@ pub fn ceiling(truth: &Truth, vehicle: &Vehicle, rate: f64, settle: f64) -> [Cei
             let spring = |s: usize| {
                 let d = deflections[k][2 * j + s];
                 let rate_k = (deflections[k + 1][2 * j + s] - deflections[k - 1][2 * j + s]) * rate / 2.0;
-                v.primary_stiffness * d + damper(vehicle, rate_k)
+                v.primary_stiffness * d + primary.primary_damper(rate_k)
             };
             let (left, right) = (accelerations[k][2 * j], accelerations[k][2 * j + 1]);
             let (bounce, roll) = ((left + right) / 2.0, (left - right) / (2.0 * dw));
