@@ -8,6 +8,7 @@ mod s2_wheel_rail;
 mod s3_wheel_rail_lr;
 mod s4_maglev;
 mod s5_missile;
+mod wheel_rail;
 
 use estimator::{FilterKind, Noise, QuantizedSteps, RowOutcome, StateEstimator, SupervisorSettings, UnscentedParams};
 

@@ -9,10 +9,9 @@
 //! the forces' noise as an intensity); the sensors' noise (tunable).
 
 use estimator::models::{PiecewiseLinear, VerticalVehicle, WheelRailVertical};
-use estimator::{
-    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, SupervisorSettings, UnscentedParams,
-};
+use estimator::{build_filter, Discretized, FilterKind, Noise, StateEstimator, SupervisorSettings, UnscentedParams};
 
+use super::wheel_rail::Layout;
 use super::{no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
 use crate::variables::{Parameters, Role, Variable};
 
@@ -222,6 +221,9 @@ fn vehicle(p: &Parameters) -> Result<VerticalVehicle, String> {
     })
 }
 
+/// The car body's and bogies' bounce and pitch (6), the wheelsets' bounce (4), four forces.
+const LAYOUT: Layout = Layout { body: 6, wheelsets: 4, forces: 4 };
+
 fn build(
     p: &Parameters,
     kind: FilterKind,
@@ -230,12 +232,7 @@ fn build(
 ) -> Result<Box<dyn StateEstimator>, String> {
     let vehicle = vehicle(p)?;
     let substeps = p.positive("rk4_substeps")? as usize;
-    let (motion, force) = (p.non_negative("p0_motion_std")?, p.non_negative("p0_force_std")?);
-    let mut mean = [0.0; 24];
-    mean[WheelRailVertical::FORCES..].fill(vehicle.static_wheel_load);
-    let mut variances = [motion * motion; 24];
-    variances[WheelRailVertical::FORCES..].fill(force * force);
-    let prior = Gaussian::diagonal(&mean, &variances);
+    let prior = LAYOUT.prior(p, vehicle.static_wheel_load)?;
     let model = Discretized::rk4(WheelRailVertical { vehicle }, substeps);
     build_filter(kind, model, noise, &prior, ukf).map_err(|e| e.to_string())
 }
@@ -243,15 +240,7 @@ fn build(
 /// `Q` over `dt`: the per-sample motion variances scale with `dt / sample_time` (white
 /// noise), the forces' with the intensity; `R` from the sensors' noise.
 fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
-    let fraction = dt / p.positive("sample_time")?;
-    let (body, wheelset) = (p.non_negative("q_body_std")?, p.non_negative("q_wheelset_std")?);
-    let intensity = p.non_negative("force_noise_intensity")?;
-    let mut q = Vec::with_capacity(24);
-    for _ in 0..2 {
-        q.extend([body * body * fraction; 6]);
-        q.extend([wheelset * wheelset * fraction; 4]);
-    }
-    q.extend([intensity * dt; 4]);
+    let q = LAYOUT.process_noise(p, dt)?;
     let r: Vec<f64> = SENSOR_STD.iter().map(|(n, _)| p.non_negative(n).map(|s| s * s)).collect::<Result<_, _>>()?;
     Noise::diagonal(&q, &r).map_err(|e| e.to_string())
 }

@@ -12,10 +12,9 @@
 //! forces with their σ from the covariance.
 
 use estimator::models::{PiecewiseLinear, RollVehicle, WheelRailRoll};
-use estimator::{
-    build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, SupervisorSettings, UnscentedParams,
-};
+use estimator::{build_filter, Discretized, FilterKind, Noise, StateEstimator, SupervisorSettings, UnscentedParams};
 
+use super::wheel_rail::Layout;
 use super::{no_quantized_steps, DefaultExperiment, Descriptor, MAX_DERIVED};
 use crate::timing::Reading;
 use crate::variables::{Parameters, Role, Variable};
@@ -495,6 +494,10 @@ fn vehicle(p: &Parameters) -> Result<RollVehicle, String> {
     })
 }
 
+/// The car body's and bogies' bounce, pitch and roll (9), the wheelsets' bounce and roll
+/// (8), eight forces.
+const LAYOUT: Layout = Layout { body: 9, wheelsets: 8, forces: 8 };
+
 fn build(
     p: &Parameters,
     kind: FilterKind,
@@ -504,12 +507,7 @@ fn build(
     let vehicle = vehicle(p)?;
     let substeps = p.positive("rk4_substeps")? as usize;
     let force_return_rate = p.non_negative("force_return_rate")?;
-    let (motion, force) = (p.non_negative("p0_motion_std")?, p.non_negative("p0_force_std")?);
-    let mut mean = [0.0; 42];
-    mean[WheelRailRoll::FORCES..].fill(vehicle.static_wheel_load);
-    let mut variances = [motion * motion; 42];
-    variances[WheelRailRoll::FORCES..].fill(force * force);
-    let prior = Gaussian::diagonal(&mean, &variances);
+    let prior = LAYOUT.prior(p, vehicle.static_wheel_load)?;
     let model = Discretized::rk4(WheelRailRoll { vehicle, force_return_rate }, substeps);
     build_filter(kind, model, noise, &prior, ukf).map_err(|e| e.to_string())
 }
@@ -519,15 +517,7 @@ fn build(
 /// velocities, the wheelsets' their eight), the forces' with the intensity; `R` from the
 /// sensors' noise, and for the deflections the model's error in them.
 fn noise(p: &Parameters, dt: f64) -> Result<Noise, String> {
-    let fraction = dt / p.positive("sample_time")?;
-    let (body, wheelset) = (p.non_negative("q_body_std")?, p.non_negative("q_wheelset_std")?);
-    let intensity = p.non_negative("force_noise_intensity")?;
-    let mut q = Vec::with_capacity(42);
-    for _ in 0..2 {
-        q.extend([body * body * fraction; 9]);
-        q.extend([wheelset * wheelset * fraction; 8]);
-    }
-    q.extend([intensity * dt; 8]);
+    let q = LAYOUT.process_noise(p, dt)?;
     let model_error = p.non_negative("deflection_model_error")?;
     let r: Vec<f64> = INPUTS
         .iter()
