@@ -11,6 +11,8 @@ pub enum Stage {
     Predict,
     /// The measurement update (`update`).
     Update,
+    /// A smoother's step (the filter's belief is not touched).
+    Smooth,
 }
 
 impl fmt::Display for Stage {
@@ -19,6 +21,7 @@ impl fmt::Display for Stage {
             Stage::Setup => "setup",
             Stage::Predict => "predict",
             Stage::Update => "update",
+            Stage::Smooth => "smooth",
         })
     }
 }

@@ -46,7 +46,7 @@ mod linalg;
 mod model;
 mod noise;
 mod points;
-mod smoother;
+mod smoothing;
 mod supervised;
 mod supervisor;
 
@@ -68,9 +68,10 @@ pub use linalg::{
 pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINTS};
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
-pub use smoother::{
+pub use smoothing::fixed_interval::{
     cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, RootGaussian, SmoothingStep,
     SquareRootStep,
 };
+pub use smoothing::fixed_lag::{FixedLagSmoother, LaggedEstimate, Transition};
 pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};
 pub use supervisor::{Channel, FaultChange, Outcome, QuantizedSteps, RowOutcome, Supervisor, SupervisorSettings};

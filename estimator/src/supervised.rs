@@ -16,6 +16,14 @@
 //!    scale on `Q` the filter takes for its next prediction; what changed
 //!    becomes an [`Event`].
 //!
+//! Asked to ([`SupervisedFilter::keep_transitions`]), the loop also keeps of
+//! each prediction what a smoother needs (a [`Transition`]): the filter's
+//! cross-covariance, and the prediction with what the gate did to it before
+//! the update it kept ([`Supervisor::apply_pending_to_prediction`]). With a
+//! [`FixedLagSmoother`] ([`SupervisedFilter::smooth_with_lag`]) each step is
+//! added to it once its belief is final: at the commit of its update, or at
+//! the next prediction when it had none.
+//!
 //! [`SupervisedFilter::run`] makes these steps over a sequence of samples and
 //! shows each [`Step`] to an observer. A driver with its own clock (an FMU,
 //! whose master decides when a sample is measured and when it is read) calls
@@ -26,8 +34,11 @@
 
 use std::fmt;
 
+use nalgebra::DMatrix;
+
 use crate::error::FilterError;
 use crate::filter::{Snapshot, StateEstimator};
+use crate::smoothing::fixed_lag::{FixedLagSmoother, LaggedEstimate, Transition};
 use crate::supervisor::{FaultChange, Outcome, Supervisor};
 
 /// Something that happened at a sample, for a driver to report once.
@@ -64,6 +75,13 @@ pub enum Event {
         /// The sample's instant (s).
         time: f64,
     },
+    /// The fixed-lag smoother could not add a step (a singular prediction, a
+    /// non-finite term) and starts again from the belief at `time`: until the
+    /// lag has passed, its estimate is of a later instant than the lag says.
+    SmoothingRestarted {
+        /// The sample's instant (s).
+        time: f64,
+    },
 }
 
 /// One sample of a run.
@@ -91,6 +109,8 @@ pub struct Step<'a> {
     pub supervisor: &'a Supervisor,
     /// What changed at this sample.
     pub events: &'a [Event],
+    /// The prediction to this sample, when transitions are kept and one was made.
+    pub transition: Option<&'a Transition>,
 }
 
 /// A failure of the loop at a sample: the filter's error, where it happened.
@@ -121,6 +141,22 @@ pub struct SupervisedFilter {
     /// NIS of the latest committed update (kept here: a restored belief has no innovation).
     nis: f64,
     events: Vec<Event>,
+    smoothing: Option<Box<Smoothing>>,
+}
+
+/// What the loop keeps for smoothing.
+struct Smoothing {
+    /// The last prediction; once its update is committed, with what the gate did to it.
+    transition: Transition,
+    /// A prediction was made since the last step was added (or since the start).
+    open: bool,
+    /// The instant the last prediction was made to.
+    predicted_to: Option<f64>,
+    /// The last prediction with what a pending (previewed) update did to it.
+    pending: Transition,
+    /// The filter's covariance, copied.
+    covariance: DMatrix<f64>,
+    fixed_lag: Option<FixedLagSmoother>,
 }
 
 impl SupervisedFilter {
@@ -129,7 +165,151 @@ impl SupervisedFilter {
         let m = filter.measurement_dim();
         crate::error::check_len("supervisor channels", m, supervisor.channels().len())?;
         let nis = filter.innovation().nis();
-        Ok(Self { filter, supervisor, skipped: 0, nis, events: Vec::with_capacity(2 * m + 2) })
+        Ok(Self { filter, supervisor, skipped: 0, nis, events: Vec::with_capacity(2 * m + 3), smoothing: None })
+    }
+
+    /// From now on keeps of each prediction the [`Transition`] a smoother
+    /// needs (allocates, here only).
+    pub fn keep_transitions(&mut self) {
+        if self.smoothing.is_none() {
+            self.filter.keep_cross_covariance();
+            let n = self.filter.state_dim();
+            self.smoothing = Some(Box::new(Smoothing {
+                transition: Transition::zeros(n),
+                open: false,
+                predicted_to: None,
+                pending: Transition::zeros(n),
+                covariance: DMatrix::zeros(n, n),
+                fixed_lag: None,
+            }));
+        }
+    }
+
+    /// Smooths the states `states` `lag` samples back, from the current belief
+    /// on ([`FixedLagSmoother`]); keeps the transitions.
+    pub fn smooth_with_lag(&mut self, states: &[usize], lag: usize) -> Result<(), FilterError> {
+        let mut smoother = FixedLagSmoother::new(self.filter.state_dim(), states, lag)?;
+        self.keep_transitions();
+        let Some(smoothing) = self.smoothing.as_deref_mut() else { unreachable!("kept just above") };
+        self.filter.write_covariance(&mut smoothing.covariance);
+        smoother.start(self.filter.time(), self.filter.mean(), &smoothing.covariance);
+        smoothing.fixed_lag = Some(smoother);
+        smoothing.open = false;
+        Ok(())
+    }
+
+    /// The fixed-lag smoother, if there is one.
+    pub fn fixed_lag(&self) -> Option<&FixedLagSmoother> {
+        self.smoothing.as_ref().and_then(|s| s.fixed_lag.as_ref())
+    }
+
+    /// The fixed-lag estimate with the belief as it stands: the smoother's,
+    /// advanced over the last prediction when its step is not added yet.
+    pub fn lagged_estimate(&mut self) -> Option<Result<LaggedEstimate<'_>, FilterError>> {
+        let smoothing = self.smoothing.as_deref_mut()?;
+        let smoother = smoothing.fixed_lag.as_mut()?;
+        if !smoothing.open {
+            return smoother.estimate().map(Ok);
+        }
+        self.filter.write_covariance(&mut smoothing.covariance);
+        let time = self.filter.time();
+        Some(smoother.estimate_with(time, &smoothing.transition, self.filter.mean(), &smoothing.covariance))
+    }
+
+    /// The fixed-lag estimate a read of the pending update on `reader` shows
+    /// ([`SupervisedFilter::preview`]): the step to it with the pending outcome.
+    pub fn lagged_estimate_with_pending(
+        &mut self,
+        reader: &dyn StateEstimator,
+    ) -> Option<Result<LaggedEstimate<'_>, FilterError>> {
+        let smoothing = self.smoothing.as_deref_mut()?;
+        let smoother = smoothing.fixed_lag.as_mut()?;
+        reader.write_covariance(&mut smoothing.covariance);
+        if !smoothing.open {
+            // An update at the smoother's own instant (the first sample's): its belief.
+            return Some(Ok(smoother.own_estimate(reader.time(), reader.mean(), &smoothing.covariance)));
+        }
+        smoothing.pending.clone_from(&smoothing.transition);
+        let Transition { predicted, .. } = &mut smoothing.pending;
+        self.supervisor.apply_pending_to_prediction(reader.noise().q(), &mut predicted.mean, &mut predicted.covariance);
+        Some(smoother.estimate_with(reader.time(), &smoothing.pending, reader.mean(), &smoothing.covariance))
+    }
+
+    /// What the smoothing holds between samples, as words for a saved state
+    /// (nothing when transitions are not kept): `[open, predicted to (NaN for
+    /// none), C, m⁻, P⁻ (column-major), then the fixed-lag smoother's words]`.
+    pub fn save_smoothing(&self, out: &mut Vec<f64>) {
+        out.clear();
+        let Some(smoothing) = self.smoothing.as_deref() else { return };
+        let Transition { cross, predicted } = &smoothing.transition;
+        out.push(f64::from(u8::from(smoothing.open)));
+        out.push(smoothing.predicted_to.unwrap_or(f64::NAN));
+        out.extend_from_slice(cross.as_slice());
+        out.extend_from_slice(predicted.mean.as_slice());
+        out.extend_from_slice(predicted.covariance.as_slice());
+        if let Some(smoother) = &smoothing.fixed_lag {
+            smoother.save(out);
+        }
+    }
+
+    /// Takes back what [`SupervisedFilter::save_smoothing`] wrote, into a loop
+    /// set up alike; on error nothing changes.
+    pub fn load_smoothing(&mut self, words: &[f64]) -> Result<(), FilterError> {
+        let bad = |why: &str| FilterError::InvalidSetting(format!("saved smoothing {why}"));
+        let Some(smoothing) = self.smoothing.as_deref_mut() else {
+            return if words.is_empty() { Ok(()) } else { Err(bad("for a loop that does not smooth")) };
+        };
+        let n = smoothing.covariance.nrows();
+        let head = 2 + 2 * n * n + n;
+        if words.len() < head {
+            return Err(bad("is truncated"));
+        }
+        let (fixed, rest) = words.split_at(head);
+        if !(fixed[0] == 0.0 || fixed[0] == 1.0) || fixed[2..].iter().any(|v| !v.is_finite()) {
+            return Err(bad("has values out of range"));
+        }
+        match smoothing.fixed_lag.as_mut() {
+            Some(smoother) => {
+                let mut loaded = smoother.clone();
+                if loaded.load(rest)? != rest.len() {
+                    return Err(bad("has words left over"));
+                }
+                *smoother = loaded;
+            }
+            None if !rest.is_empty() => return Err(bad("has a fixed-lag smoother this loop has not")),
+            None => {}
+        }
+        smoothing.open = fixed[0] == 1.0;
+        smoothing.predicted_to = fixed[1].is_finite().then_some(fixed[1]);
+        let Transition { cross, predicted } = &mut smoothing.transition;
+        let (c, rest) = fixed[2..].split_at(n * n);
+        let (m, p) = rest.split_at(n);
+        cross.copy_from_slice(c);
+        predicted.mean.copy_from_slice(m);
+        predicted.covariance.copy_from_slice(p);
+        Ok(())
+    }
+
+    /// The transition of the prediction to the current belief's instant, when
+    /// transitions are kept and one was made (after the commit: with what the
+    /// gate did to it).
+    pub fn transition(&self) -> Option<&Transition> {
+        let smoothing = self.smoothing.as_deref()?;
+        (smoothing.predicted_to == Some(self.filter.time())).then_some(&smoothing.transition)
+    }
+
+    /// Adds the open step to the fixed-lag smoother with the filter's belief.
+    fn add_open_step(&mut self) {
+        let Some(smoothing) = self.smoothing.as_deref_mut() else { return };
+        if !std::mem::take(&mut smoothing.open) {
+            return;
+        }
+        let Some(smoother) = smoothing.fixed_lag.as_mut() else { return };
+        self.filter.write_covariance(&mut smoothing.covariance);
+        let time = self.filter.time();
+        if smoother.push(time, &smoothing.transition, self.filter.mean(), &smoothing.covariance).is_err() {
+            self.events.push(Event::SmoothingRestarted { time });
+        }
     }
 
     /// The belief.
@@ -160,7 +340,19 @@ impl SupervisedFilter {
 
     /// Step 1: predicts over `dt` with `controls` held over the interval.
     pub fn predict(&mut self, controls: &[f64], dt: f64) -> Result<(), FilterError> {
-        self.filter.predict(controls, dt)
+        // A step without an update is final once the next prediction starts.
+        self.add_open_step();
+        self.filter.predict(controls, dt)?;
+        if let Some(smoothing) = self.smoothing.as_deref_mut() {
+            if let Some(cross) = self.filter.cross_covariance() {
+                smoothing.transition.cross.copy_from(cross);
+            }
+            smoothing.transition.predicted.mean.copy_from(self.filter.mean());
+            self.filter.write_covariance(&mut smoothing.transition.predicted.covariance);
+            smoothing.open = true;
+            smoothing.predicted_to = Some(self.filter.time());
+        }
+        Ok(())
     }
 
     /// Step 2: holds the controls of the current sample for its update.
@@ -201,6 +393,19 @@ impl SupervisedFilter {
     }
 
     fn commit(&mut self, z: &[f64], time: f64) -> Result<(), FilterError> {
+        if let Some(smoothing) = self.smoothing.as_deref_mut() {
+            if smoothing.open {
+                let Transition { predicted, .. } = &mut smoothing.transition;
+                let q = self.filter.noise().q();
+                self.supervisor.apply_pending_to_prediction(q, &mut predicted.mean, &mut predicted.covariance);
+                self.add_open_step();
+            } else if let Some(smoother) = smoothing.fixed_lag.as_mut() {
+                // An update with no prediction before it (the first sample's):
+                // the smoother starts at its belief.
+                self.filter.write_covariance(&mut smoothing.covariance);
+                smoother.start(self.filter.time(), self.filter.mean(), &smoothing.covariance);
+            }
+        }
         self.skipped += missing_rows(z);
         self.nis = self.supervisor.pending().nis;
         if let Some(channel) = self.supervisor.pending().reacquired {
@@ -288,6 +493,10 @@ impl SupervisedFilter {
                 filter: self.filter.as_ref(),
                 supervisor: &self.supervisor,
                 events: &self.events,
+                transition: self
+                    .smoothing
+                    .as_deref()
+                    .and_then(|s| (s.predicted_to == Some(self.filter.time())).then_some(&s.transition)),
             });
             self.events.clear();
         }

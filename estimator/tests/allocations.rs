@@ -133,6 +133,32 @@ fn the_supervisor_allocates_nothing_per_sample() {
     }
 }
 
+/// The supervised loop with a fixed-lag smoother (a lag of 40 samples, the
+/// load states) allocates nothing per sample either, its reads included.
+#[test]
+fn the_fixed_lag_smoother_allocates_nothing_per_sample() {
+    let (zs, _) = s1_measurements(300, 0.005, 1.0, 0.05, 8);
+    for filter in s1_filters() {
+        let kind = filter.kind();
+        let supervisor = Supervisor::new(SupervisorSettings::default(), 2).unwrap();
+        let mut supervised = estimator::SupervisedFilter::new(filter, supervisor).unwrap();
+        supervised.smooth_with_lag(&estimator::models::Oscillator2DofLoad::UNKNOWN_INPUTS, 40).unwrap();
+        let run = |supervised: &mut estimator::SupervisedFilter, range: std::ops::Range<usize>| {
+            for k in range {
+                if k > 0 {
+                    supervised.predict(&[], 0.005).unwrap();
+                }
+                assert!(supervised.lagged_estimate().unwrap().unwrap().means[0].is_finite());
+                supervised.update(&zs[k], k as f64 * 0.005).unwrap();
+                assert!(supervised.lagged_estimate().unwrap().unwrap().variances[0] > 0.0);
+            }
+        };
+        run(&mut supervised, 0..60);
+        let n = allocations_during(|| run(&mut supervised, 60..300));
+        assert_eq!(n, 0, "{kind}: {n} allocations in 240 smoothed samples");
+    }
+}
+
 /// Copying a belief into a twin filter (what an FMU does for every read
 /// between samples) allocates nothing once the snapshot's buffers exist, and
 /// the twin then steps exactly as the original.

@@ -451,6 +451,11 @@ impl Instance {
                     "logEvents",
                     format!("every input passed the gate at t = {time} s: re-acquisitions are possible again"),
                 ),
+                Event::SmoothingRestarted { time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("the fixed-lag smoother starts again at t = {time} s (a singular prediction or a non-finite term): the smoothed outputs describe smoothed_time, later than smoothing_lag says until that lag has passed"),
+                ),
             };
             self.log(status, category, &text);
         }

@@ -23,6 +23,9 @@ pub(crate) struct Core<M> {
     pub innovation: Innovation,
     /// Row by row, the measurement `z` as passed to `update`.
     pub z: DVector<f64>,
+    /// `Cov(x(t), x(t + dt))` of the last prediction, once a smoother asked
+    /// for it ([`StateEstimator::keep_cross_covariance`](crate::StateEstimator::keep_cross_covariance)).
+    pub cross: Option<nalgebra::DMatrix<f64>>,
 }
 
 impl<M: Model> Core<M> {
@@ -43,6 +46,7 @@ impl<M: Model> Core<M> {
             x_next: DVector::zeros(n),
             innovation: Innovation::new(m),
             z: DVector::zeros(m),
+            cross: None,
             model,
             noise,
             t: t0,
@@ -268,6 +272,15 @@ macro_rules! core_accessors {
 
         fn hold_input(&mut self, u: &[f64]) -> Result<(), crate::error::FilterError> {
             self.core.hold_input(u)
+        }
+
+        fn keep_cross_covariance(&mut self) {
+            let n = self.core.n();
+            self.core.cross.get_or_insert_with(|| nalgebra::DMatrix::zeros(n, n));
+        }
+
+        fn cross_covariance(&self) -> Option<&nalgebra::DMatrix<f64>> {
+            self.core.cross.as_ref()
         }
     };
 }

@@ -136,6 +136,10 @@ impl<M: Model> ExtendedKalman<M> {
         tr_mul_add(self.f_t.as_slice(), n, n, n, self.pf_t.as_slice(), n, n, self.p_next.as_mut_slice(), n);
         symmetrize(&mut self.p_next);
         ensure_finite(self.p_next.as_slice(), Stage::Predict, "predicted covariance P")?;
+        if let Some(cross) = &mut self.core.cross {
+            // P·Fᵀ, the linearised Cov(x, φ(x)).
+            cross.copy_from(&self.pf_t);
+        }
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.core.t = t + dt;

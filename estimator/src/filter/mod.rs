@@ -77,6 +77,14 @@ pub trait StateEstimator {
     }
     /// Diagnostics of the last measurement update.
     fn innovation(&self) -> &Innovation;
+    /// From now on, each prediction from `t` to `t + dt` also keeps
+    /// `Cov(x(t), x(t + dt))` given the measurements up to `t`, by the filter's
+    /// own rule (its points before and after the transition, or the EKF's
+    /// `P·Fᵀ`): a smoother's link between the two instants. Allocates once, here.
+    fn keep_cross_covariance(&mut self);
+    /// That cross-covariance of the last prediction, once kept (a restore or
+    /// an update leaves it as it was).
+    fn cross_covariance(&self) -> Option<&DMatrix<f64>>;
     /// The noise covariances in use.
     fn noise(&self) -> &Noise;
     /// Replaces `Q` and `R` (tuning between steps).

@@ -128,6 +128,12 @@ impl<M: Model, R: CovarianceRoot, P: PointRule> SigmaPointKalman<M, R, P> {
         add_weighted_outer_products(self.p_next.as_mut_slice(), n, &self.ys, n, &self.ys, n, &self.points);
         symmetrize(&mut self.p_next);
         ensure_finite(self.p_next.as_slice(), Stage::Predict, "predicted covariance P")?;
+        if let Some(cross) = &mut self.core.cross {
+            // Σ wᶜᵢ·(Xᵢ − x̂)(Yᵢ − x̂⁻)ᵀ; the points are spread again at the update.
+            subtract_mean(&mut self.xs, self.core.x.as_slice());
+            cross.fill(0.0);
+            add_weighted_outer_products(cross.as_mut_slice(), n, &self.xs, n, &self.ys, n, &self.points);
+        }
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.core.t = t + dt;

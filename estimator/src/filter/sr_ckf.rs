@@ -38,7 +38,7 @@ use crate::filter::core::{core_accessors, ensure_finite, steps_with_avx2, Core};
 use crate::filter::point_blocks::PointBlocks;
 use crate::filter::{check_process_noise_factor, check_scale, selected, FilterKind, StateEstimator};
 use crate::gaussian::Gaussian;
-use crate::linalg::{lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Lanes, Tria};
+use crate::linalg::{axpy, lower_gram, solve_lower, solve_right_lower, solve_right_lower_transposed, sum, Lanes, Tria};
 use crate::model::Model;
 use crate::noise::{lower_square_root, Noise};
 
@@ -205,6 +205,20 @@ impl<M: Model> SquareRootCubature<M> {
         lanes.transpose(self.core.noise.q_sqrt().as_slice(), n, n, n, top, ld);
         self.predict_compound.factor_by_rows(n, self.s_t_next.as_mut_slice(), n);
         ensure_finite(self.s_t_next.as_slice(), Stage::Predict, "predicted square-root covariance S")?;
+        if let Some(cross) = &mut self.core.cross {
+            // Σ (Xᵢ − x̂)(Yᵢ − x̂⁻)ᵀ/2n with Xⱼ, Xₙ₊ⱼ = x̂ ± √n·S·eⱼ: column r is
+            // Σⱼ (√n/2n)·(Yⱼ − Yₙ₊ⱼ)ᵣ·S·eⱼ (the mean cancels in the difference).
+            let c = 0.5 / (n as f64).sqrt();
+            cross.fill(0.0);
+            for r in 0..n {
+                self.ys.copy_component(r, &mut self.point_row[..2 * n]);
+                let column = &mut cross.as_mut_slice()[r * n..(r + 1) * n];
+                for j in 0..n {
+                    let d = c * (self.point_row[j] - self.point_row[n + j]);
+                    axpy(d, &self.s.as_slice()[j * n + j..(j + 1) * n], &mut column[j..]);
+                }
+            }
+        }
         self.commit_factor(lanes);
         std::mem::swap(&mut self.core.x, &mut self.core.x_next);
         self.core.t = t + dt;

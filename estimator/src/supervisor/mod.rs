@@ -40,6 +40,7 @@ mod memory;
 mod outcome;
 mod reacquisition;
 mod settings;
+mod smoothing_prior;
 mod steps;
 
 pub use channel::Channel;
