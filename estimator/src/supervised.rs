@@ -205,11 +205,11 @@ impl SupervisedFilter {
 
     /// The fixed-lag estimate with the belief as it stands: the smoother's,
     /// advanced over the last prediction when its step is not added yet.
-    pub fn lagged_estimate(&mut self) -> Option<Result<LaggedEstimate<'_>, FilterError>> {
+    pub fn lagged_estimate(&mut self) -> Option<LaggedEstimate<'_>> {
         let smoothing = self.smoothing.as_deref_mut()?;
         let smoother = smoothing.fixed_lag.as_mut()?;
         if !smoothing.open {
-            return smoother.estimate().map(Ok);
+            return smoother.estimate();
         }
         self.filter.write_covariance(&mut smoothing.covariance);
         let time = self.filter.time();
@@ -218,16 +218,13 @@ impl SupervisedFilter {
 
     /// The fixed-lag estimate a read of the pending update on `reader` shows
     /// ([`SupervisedFilter::preview`]): the step to it with the pending outcome.
-    pub fn lagged_estimate_with_pending(
-        &mut self,
-        reader: &dyn StateEstimator,
-    ) -> Option<Result<LaggedEstimate<'_>, FilterError>> {
+    pub fn lagged_estimate_with_pending(&mut self, reader: &dyn StateEstimator) -> Option<LaggedEstimate<'_>> {
         let smoothing = self.smoothing.as_deref_mut()?;
         let smoother = smoothing.fixed_lag.as_mut()?;
         reader.write_covariance(&mut smoothing.covariance);
         if !smoothing.open {
             // An update at the smoother's own instant (the first sample's): its belief.
-            return Some(Ok(smoother.own_estimate(reader.time(), reader.mean(), &smoothing.covariance)));
+            return Some(smoother.own_estimate(reader.time(), reader.mean(), &smoothing.covariance));
         }
         smoothing.pending.clone_from(&smoothing.transition);
         let Transition { predicted, .. } = &mut smoothing.pending;

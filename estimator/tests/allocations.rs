@@ -148,9 +148,9 @@ fn the_fixed_lag_smoother_allocates_nothing_per_sample() {
                 if k > 0 {
                     supervised.predict(&[], 0.005).unwrap();
                 }
-                assert!(supervised.lagged_estimate().unwrap().unwrap().means[0].is_finite());
+                assert!(supervised.lagged_estimate().unwrap().means[0].is_finite());
                 supervised.update(&zs[k], k as f64 * 0.005).unwrap();
-                assert!(supervised.lagged_estimate().unwrap().unwrap().variances[0] > 0.0);
+                assert!(supervised.lagged_estimate().unwrap().variances[0] > 0.0);
             }
         };
         run(&mut supervised, 0..60);

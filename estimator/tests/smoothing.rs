@@ -96,7 +96,7 @@ fn supervised_run(kind: FilterKind, lag: usize, samples: usize) -> Run {
         if k > 0 {
             run.transitions.push(supervised.transition().unwrap().clone());
         }
-        let lagged = supervised.lagged_estimate().unwrap().unwrap();
+        let lagged = supervised.lagged_estimate().unwrap();
         run.lagged.push((lagged.time, lagged.means.to_vec(), lagged.variances.to_vec()));
     }
     run.rejected = supervised.supervisor().rejected();

@@ -297,6 +297,7 @@ impl Instance {
                 statuses: &statuses,
                 healthy: true,
                 process_noise_scale: 1.0,
+                smoothed: None,
             };
             write_outputs(&self.descriptor, &mut self.values, Some(&prior));
         }
@@ -572,8 +573,26 @@ fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&R
                 *x = f64::from(status_value(r.statuses.get(row).copied().unwrap_or(RowOutcome::Missing)));
             }
             (Role::FilterHealthy, Some(r)) => *x = f64::from(u8::from(r.healthy)),
+            (Role::Smoothed(a), Some(r)) => {
+                *x = r.smoothed.map_or_else(|| r.belief.mean()[descriptor.smoothed_states[a]], |s| s.means[a]);
+            }
+            (Role::SmoothedStd(a), Some(r)) => {
+                let variance =
+                    r.smoothed.map_or_else(|| r.belief.variance(descriptor.smoothed_states[a]), |s| s.variances[a]);
+                *x = variance.max(0.0).sqrt();
+            }
+            (Role::SmoothedTime, Some(r)) => *x = r.smoothed.map_or_else(|| r.belief.time(), |s| s.time),
             (Role::Derived(k), _) => *x = derived.get(k).copied().unwrap_or(f64::NAN),
-            (Role::Estimate(_) | Role::EstimateStd(_) | Role::Nis | Role::ProcessNoiseScale, None) => *x = f64::NAN,
+            (
+                Role::Estimate(_)
+                | Role::EstimateStd(_)
+                | Role::Nis
+                | Role::ProcessNoiseScale
+                | Role::Smoothed(_)
+                | Role::SmoothedStd(_)
+                | Role::SmoothedTime,
+                None,
+            ) => *x = f64::NAN,
             (Role::FilterHealthy, None) => *x = 0.0,
             _ => {}
         }
@@ -643,5 +662,31 @@ pub(crate) fn build_estimation(
             controls.len()
         ));
     }
-    Estimation::new(filter, reader, start_time, sample_time, timing, supervisor, controls).map_err(|e| e.to_string())
+    let lag = smoothing_lag_samples(&p, sample_time, n, descriptor.smoothed_states.len())?;
+    let smoothing = (lag > 0).then_some((descriptor.smoothed_states, lag));
+    Estimation::new(filter, reader, start_time, sample_time, timing, supervisor, controls, smoothing)
+        .map_err(|e| e.to_string())
+}
+
+/// The most memory the fixed-lag smoother of an instance may hold (bytes).
+const MAX_SMOOTHING_MEMORY: f64 = 256.0 * 1024.0 * 1024.0;
+
+/// `smoothing_lag` in whole samples (at least one when it is not 0), refused
+/// when the smoother of `p` of the `n` states would hold more than
+/// [`MAX_SMOOTHING_MEMORY`].
+fn smoothing_lag_samples(p: &Parameters, sample_time: f64, n: usize, smoothed: usize) -> Result<usize, String> {
+    let lag = p.non_negative("smoothing_lag")?;
+    if lag == 0.0 {
+        return Ok(0);
+    }
+    let samples = (lag / sample_time).round().max(1.0);
+    let bytes = (samples + 1.0) * ((n + 2) * smoothed + 1) as f64 * 8.0;
+    if bytes > MAX_SMOOTHING_MEMORY {
+        return Err(format!(
+            "smoothing_lag = {lag} s is {samples} samples, whose smoother would hold {:.0} MiB (at most {:.0})",
+            bytes / 1048576.0,
+            MAX_SMOOTHING_MEMORY / 1048576.0
+        ));
+    }
+    Ok(samples as usize)
 }

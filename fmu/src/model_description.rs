@@ -208,6 +208,29 @@ const TIMING: &str = concat!(
     "estimate, whose time <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> gives.</li>\n</ul>",
 );
 
+/// The fixed-lag smoothed outputs, for `documentation/index.html` (rule 9 of `timing.rs`).
+const SMOOTHING: &str = concat!(
+    "<p>The outputs <code>&lt;name&gt;_smoothed</code> and <code>&lt;name&gt;_smoothed_std</code> (one pair for ",
+    "each quantity the FMU is there to estimate) give that quantity <code>smoothing_lag</code> seconds back, ",
+    "estimated from the measurements up to the time read: a fixed-lag Rauch–Tung–Striebel smoother on the filter's ",
+    "own predictions (its points, or the EKF's Jacobian), with what the gate did at each sample (a jump or a ",
+    "re-acquisition loosens the link to the samples before it, a bias step shifts it). Monitoring that can wait a ",
+    "fraction of a second gets an estimate without the filter's lag and with less noise.</p>\n<ul>\n",
+    "<li><code>smoothed_time</code> says which time they describe: the time read minus {smoothing_lag}, rounded to ",
+    "whole samples on the filter's grid. Until that much time has passed it is the start time; read between samples ",
+    "it is the lag before the last sample.</li>\n",
+    "<li>With <code>smoothing_lag</code> = 0 (off) they are the filter's estimate of the time read, and ",
+    "<code>smoothed_time</code> is that time.</li>\n",
+    "<li>The same time rules hold as for the estimates: once the inputs of a sample instant t are set, a read at t ",
+    "includes the update at t (direct feedthrough); read right after fmi2DoStep(t, h), the prediction to t + h is ",
+    "the newest step.</li>\n",
+    "<li>Memory is fixed at fmi2ExitInitializationMode: for L = smoothing_lag / sample_time samples, n states and p ",
+    "smoothed quantities, (L + 1)·((n + 2)·p + 1) numbers (at most 256 MiB, else the FMU refuses the lag). A ",
+    "step allocates nothing and costs about 2·p·n² multiply-adds per sample of the lag. The FMU state holds it.</li>\n",
+    "<li>Should a step's predicted covariance be singular, the smoother starts again at that sample (a warning says ",
+    "so) and <code>smoothed_time</code> shows it.</li>\n</ul>\n",
+);
+
 /// How controls are timed, for the `documentation/index.html` of an FMU with controls
 /// (rules 5–8 of `timing.rs`); [`documentation`] appends the controls' start values.
 const CONTROLS_TIMING: &str = concat!(
@@ -408,6 +431,7 @@ pub fn documentation(d: &Descriptor) -> String {
          <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
          <h2>The study</h2>\n{doc}\n\
          <h2>Time: which measurement, which estimate</h2>\n{timing}\n{controls}\
+         <h2>Smoothed outputs</h2>\n{smoothing}\
          <h2>Gross errors, faults and health</h2>\n{supervision}\n\
          <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
          fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
@@ -418,6 +442,7 @@ pub fn documentation(d: &Descriptor) -> String {
         guid = d.guid(),
         doc = expand(d.documentation, d, &[]),
         timing = expand(TIMING, d, &[]),
+        smoothing = expand(SMOOTHING, d, &[]),
         supervision = expand(SUPERVISION, d, &[("gate_sigmas", &gate_sigmas_phrase(d))]),
     );
     for (title, causality) in

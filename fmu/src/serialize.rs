@@ -12,7 +12,8 @@
 //!                           supervisor memory (u32 count + u64 each)
 //!                           controls in force (u32 count + f64 each)
 //!                           input statuses of the latest update (u32 count + u8 InputStatus value each)
-//!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each) ]
+//!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each)
+//!                           smoothing (u32 count + f64 each) ]
 //! ```
 //!
 //! All numbers little-endian. Version 4 added the controls in force (the
@@ -24,7 +25,9 @@
 //! the supervisor memory of layout 3 (the adapted scale on `Q` and the jump
 //! under review, with its two beliefs); version 9 adds the input timing check
 //! (`input_timing_check.rs`: where it is, and the inputs set in
-//! initialisation mode it compares the first steps' with). The filter and
+//! initialisation mode it compares the first steps' with); version 10 adds the
+//! smoothing (`estimator::SupervisedFilter::save_smoothing`: the open step and
+//! the fixed-lag smoother's instants; empty when `smoothing_lag` is 0). The filter and
 //! its twin for reads are rebuilt from the parameter values and the belief
 //! restored from the snapshot; the outputs are computed afresh at the next
 //! read, from exactly that.
@@ -38,7 +41,7 @@ use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 9;
+const VERSION: u32 = 10;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.
@@ -89,6 +92,7 @@ pub fn save(instance: &Instance) -> Vec<u8> {
             w.f64s(&p.belief.input);
             w.f64s(&p.belief.mean);
             w.f64s(&p.belief.covariance);
+            w.f64s(&p.smoothing);
         }
     }
     w.0
@@ -181,7 +185,8 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
             let time = r.f64()?;
             let (input, mean, covariance) = (r.f64s()?, r.f64s()?, r.f64s()?);
             let belief = Snapshot { kind, time, input, mean, covariance };
-            Some(Progress { samples, measured, skipped, nis, supervisor, controls, statuses, belief })
+            let smoothing = r.f64s()?;
+            Some(Progress { samples, measured, skipped, nis, supervisor, controls, statuses, belief, smoothing })
         }
     };
     if r.at != bytes.len() {

@@ -72,6 +72,17 @@
 //! 8. The controls in force are part of the FMU state: the instance's input
 //!    values, the filter's held input (the controls of its current sample) and
 //!    [`Progress::controls`] (those in force from the FMU's time on).
+//!
+//! Smoothed outputs (`smoothing_lag` > 0; `estimator::SupervisedFilter::smooth_with_lag`):
+//!
+//! 9. A read shows, beside the belief at `t`, the fixed-lag smoothed estimate of
+//!    the sample `L = round(smoothing_lag / sample_time)` samples before the
+//!    filter's newest one, given everything the belief read includes: after a
+//!    feedthrough update at `t` that update too (the pending step on a copy of
+//!    the oldest instant needed; the step commits it), after a step the
+//!    prediction to the new sample (the smoother's open step). Its time is the
+//!    output `smoothed_time` (the start until `L` samples have passed). The
+//!    smoother's instants and its open step are part of the FMU state.
 
 use estimator::{Event, FilterError, Noise, RowOutcome, Snapshot, StateEstimator, SupervisedFilter, Supervisor};
 
@@ -129,6 +140,27 @@ pub struct Reading<'a> {
     pub healthy: bool,
     /// The adapted scale on `Q` the belief was predicted with.
     pub process_noise_scale: f64,
+    /// The fixed-lag smoothed estimate that goes with the belief (rule 9),
+    /// when the instance smooths.
+    pub smoothed: Option<Smoothed<'a>>,
+}
+
+/// A fixed-lag smoothed estimate, as a read shows it.
+#[derive(Debug, Clone, Copy)]
+pub struct Smoothed<'a> {
+    /// The time it describes (s).
+    pub time: f64,
+    /// The smoothed states' means, in the descriptor's order.
+    pub means: &'a [f64],
+    /// Their variances.
+    pub variances: &'a [f64],
+}
+
+/// The buffers a read copies the smoothed estimate into.
+struct SmoothedCopy {
+    time: f64,
+    means: Vec<f64>,
+    variances: Vec<f64>,
 }
 
 /// The running estimator of an instance: the filter on its grid, and a
@@ -168,6 +200,8 @@ pub struct Estimation {
     /// apart from the supervisor's pending outcome, which a feedthrough read
     /// or a failed update overwrites and an FMU state does not hold.
     committed_statuses: Vec<RowOutcome>,
+    /// The smoothed estimate of the last read, when the instance smooths.
+    smoothed: Option<SmoothedCopy>,
 }
 
 /// The part of an [`Estimation`] an FMU state saves: the rest comes from the parameters.
@@ -192,13 +226,18 @@ pub struct Progress {
     /// The filter's belief at the current sample (its held input: the controls
     /// of that sample).
     pub belief: Snapshot,
+    /// The smoothing's words (`estimator::SupervisedFilter::save_smoothing`;
+    /// empty when the instance does not smooth).
+    pub smoothing: Vec<f64>,
 }
 
 impl Estimation {
     /// Starts on the grid `start + k·sample_time` with `filter`'s belief at
     /// `start`; `reader` is a second filter of the same build; every update
     /// goes through `supervisor`; `controls` are those standing at the start
-    /// (the controls of the start time with `AtStepEnd`).
+    /// (the controls of the start time with `AtStepEnd`). With `smoothing`,
+    /// `(states, lag)`, those states are also smoothed `lag` samples back.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         filter: Box<dyn StateEstimator>,
         reader: Box<dyn StateEstimator>,
@@ -207,11 +246,22 @@ impl Estimation {
         timing: InputTiming,
         supervisor: Supervisor,
         controls: &[f64],
+        smoothing: Option<(&[usize], usize)>,
     ) -> Result<Self, FilterError> {
         let copy = filter.snapshot();
         let m = filter.measurement_dim();
+        let mut supervised = SupervisedFilter::new(filter, supervisor)?;
+        let smoothed = match smoothing {
+            Some((states, lag)) => {
+                supervised.smooth_with_lag(states, lag)?;
+                let zeros = vec![0.0; states.len()];
+                Some(SmoothedCopy { time: start, means: zeros.clone(), variances: zeros })
+            }
+            None => None,
+        };
         Ok(Self {
-            supervised: SupervisedFilter::new(filter, supervisor)?,
+            supervised,
+            smoothed,
             reader,
             reader_interval: sample_time,
             posterior_ready: false,
@@ -250,6 +300,7 @@ impl Estimation {
         self.committed_statuses.copy_from_slice(&progress.statuses);
         self.sample_controls.copy_from_slice(&progress.belief.input);
         self.supervised.resume(progress.skipped, progress.nis, &progress.supervisor)?;
+        self.supervised.load_smoothing(&progress.smoothing)?;
         self.samples = progress.samples;
         self.measured = progress.measured;
         Ok(self)
@@ -270,6 +321,11 @@ impl Estimation {
             controls: self.standing.clone(),
             statuses: self.committed_statuses.clone(),
             belief: self.supervised.filter().snapshot(),
+            smoothing: {
+                let mut words = Vec::new();
+                self.supervised.save_smoothing(&mut words);
+                words
+            },
         }
     }
 
@@ -419,6 +475,9 @@ impl Estimation {
                         Err(e) => return Err(format!("the update with the inputs at t = {t} s failed: {e}")),
                     };
                     self.posterior_ready = true;
+                    if let Some(copy) = self.smoothed.as_mut() {
+                        copy.take(self.supervised.lagged_estimate_with_pending(self.reader.as_ref()));
+                    }
                     let skipped = self.supervised.skipped_with_pending();
                     let supervisor = self.supervised.supervisor();
                     for (c, flag) in self.faulty.iter_mut().enumerate() {
@@ -436,6 +495,7 @@ impl Estimation {
                         statuses: &supervisor.pending().rows,
                         healthy,
                         process_noise_scale,
+                        smoothed: self.smoothed.as_ref().map(SmoothedCopy::shown),
                     })
                 }
                 _ => Ok(self.committed_reading(false)),
@@ -467,6 +527,9 @@ impl Estimation {
 
     /// A reading of the committed counts, with the filter's belief or the reader's.
     fn committed_reading(&mut self, reader: bool) -> Reading<'_> {
+        if let Some(copy) = self.smoothed.as_mut() {
+            copy.take(self.supervised.lagged_estimate());
+        }
         let supervisor = self.supervised.supervisor();
         for (c, flag) in self.faulty.iter_mut().enumerate() {
             *flag = supervisor.channels()[c].faulty;
@@ -480,6 +543,7 @@ impl Estimation {
             statuses: &self.committed_statuses,
             healthy: supervisor.healthy(),
             process_noise_scale: supervisor.process_noise_scale(),
+            smoothed: self.smoothed.as_ref().map(SmoothedCopy::shown),
         }
     }
 
@@ -516,5 +580,20 @@ impl Estimation {
         // A feedthrough update made with the old R is no longer the one to commit.
         self.posterior_ready = false;
         self.supervised.set_noise(noise)
+    }
+}
+
+impl SmoothedCopy {
+    /// Copies the estimate a read shows.
+    fn take(&mut self, estimate: Option<estimator::LaggedEstimate<'_>>) {
+        if let Some(estimate) = estimate {
+            self.time = estimate.time;
+            self.means.copy_from_slice(estimate.means);
+            self.variances.copy_from_slice(estimate.variances);
+        }
+    }
+
+    fn shown(&self) -> Smoothed<'_> {
+        Smoothed { time: self.time, means: &self.means, variances: &self.variances }
     }
 }

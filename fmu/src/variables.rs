@@ -87,6 +87,13 @@ pub enum Role {
     InputTimingCheck,
     /// Output `k` of the estimator's derived outputs (`Descriptor::derive`).
     Derived(usize),
+    /// Output: the fixed-lag smoothed estimate of the `a`-th of the estimator's
+    /// smoothed states (`Descriptor::smoothed_states`).
+    Smoothed(usize),
+    /// Output: its standard deviation.
+    SmoothedStd(usize),
+    /// Output: the time the smoothed estimates describe.
+    SmoothedTime,
 }
 
 /// One scalar variable.

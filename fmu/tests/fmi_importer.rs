@@ -58,7 +58,8 @@ use estimator::models::{
     WheelRailRoll, WheelRailVertical,
 };
 use estimator::{
-    build_filter, Discretized, FilterKind, Gaussian, Noise, QuantizedSteps, StateEstimator, Supervisor, UnscentedParams,
+    build_filter, Discretized, FilterKind, Gaussian, Noise, QuantizedSteps, StateEstimator, SupervisedFilter,
+    Supervisor, UnscentedParams,
 };
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
@@ -254,6 +255,20 @@ impl Setup {
 
     fn model(&self) -> &'static str {
         self.descriptor.model_identifier
+    }
+
+    /// The same FMU and filter: a setup of its own to change the parameters of.
+    fn same(other: &Setup) -> Self {
+        Self {
+            descriptor: descriptor(other.model()),
+            reals: other.reals.clone(),
+            substeps: other.substeps,
+            filter: other.filter,
+            reference: other.reference,
+            supervisor: other.supervisor,
+            measurements: other.measurements,
+            signal: other.signal,
+        }
     }
 
     /// A Real parameter's value: as set here, or the FMU's default.
@@ -1025,6 +1040,159 @@ fn s3_communication_steps_shorter_and_longer_than_the_sample_time() {
 #[test]
 fn s4_communication_steps_shorter_and_longer_than_the_sample_time() {
     communication_steps_shorter_and_longer_than_the_sample_time(&Setup::s4());
+}
+
+/// The measurements and controls of `n` samples for `setup` (controls only for S5).
+fn flight_or_measurements(setup: &Setup, n: usize, dt: f64, seed: u64) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    if setup.controls().is_empty() {
+        ((setup.measurements)(setup, n, dt, seed), vec![Vec::new(); n])
+    } else {
+        s5_flight(setup, n, dt, seed)
+    }
+}
+
+/// With `smoothing_lag` = 0.02 s (4 samples of S1 and S4, 20 of S2, S3 and S5), a
+/// master's sample by sample (set the inputs of t, read, step, read): every
+/// `<name>_smoothed`, `<name>_smoothed_std` and `smoothed_time` equals the
+/// library's fixed-lag smoother behind the same supervisor (`SupervisedFilter::
+/// smooth_with_lag`), bit for bit, at both reads; `smoothed_time` is the lag
+/// before the time read once that much has passed; a saved state replays the
+/// smoothed outputs bit for bit; with `smoothing_lag` 0 they are the estimates.
+fn smoothed_outputs_equal_the_library_fixed_lag_smoother(setup: &Setup) {
+    let (model, dt, samples, lag_time) = (setup.model(), setup.sample_time(), 300, 0.02);
+    let lag = (lag_time / dt).round() as usize;
+    let (z, u) = flight_or_measurements(setup, samples + 1, dt, 31);
+    let import: Fmi2Import = fmi::import::from_path(fmu_path(model)).expect("importing the .fmu");
+    let states = setup.descriptor.smoothed_states;
+    let named = |suffix: &str| -> Vec<String> {
+        states
+            .iter()
+            .map(|&i| {
+                let estimate = setup.names(|r| r == Role::Estimate(i))[0];
+                format!("{estimate}{suffix}")
+            })
+            .collect()
+    };
+    let mut smoothed_setup = Setup::same(setup);
+    smoothed_setup.reals.push(("smoothing_lag", lag_time));
+    let mut fmu = Fmu::new(&import, &smoothed_setup, model);
+    fmu.initialise(&smoothed_setup, samples as f64 * dt);
+    let vrs: Vec<u32> = named("_smoothed")
+        .iter()
+        .chain(&named("_smoothed_std"))
+        .map(|n| fmu.vr[n.as_str()])
+        .chain([fmu.vr["smoothed_time"]])
+        .collect();
+    let read = |fmu: &mut Fmu| {
+        let mut out = vec![0.0; vrs.len()];
+        Common::get_real(&mut fmu.instance, &vrs, &mut out).expect("fmi2GetReal of the smoothed outputs");
+        out
+    };
+    let mut reference = SupervisedFilter::new(setup.reference_filter(), (setup.supervisor)(setup)).unwrap();
+    reference.smooth_with_lag(states, lag).unwrap();
+    let expected = |reference: &mut SupervisedFilter| {
+        let e = reference.lagged_estimate().unwrap();
+        e.means
+            .iter()
+            .copied()
+            .chain(e.variances.iter().map(|v| v.max(0.0).sqrt()))
+            .chain([e.time])
+            .collect::<Vec<f64>>()
+    };
+    let mut saved = None;
+    let mut after_save = Vec::new();
+    for k in 0..=samples {
+        let t = k as f64 * dt;
+        if k > 0 {
+            reference.predict(&u[k - 1], dt).unwrap();
+            let got = read(&mut fmu);
+            assert_eq!(
+                bits(&[got.clone()]),
+                bits(&[expected(&mut reference)]),
+                "{model}: after the step to sample {k}"
+            );
+            if saved.is_some() {
+                after_save.push(got);
+            }
+        }
+        fmu.set_inputs(&z[k]);
+        fmu.set_controls(&u[k]);
+        reference.hold_input(&u[k]).unwrap();
+        reference.update(&z[k], t).unwrap();
+        let got = read(&mut fmu);
+        assert_eq!(bits(&[got.clone()]), bits(&[expected(&mut reference)]), "{model}: at sample {k}");
+        let time = *got.last().unwrap();
+        let target = k.saturating_sub(lag) as f64 * dt;
+        assert!((time - target).abs() < 1e-9 * (1.0 + t), "{model}: smoothed_time {time} at sample {k}, not {target}");
+        if saved.is_some() {
+            after_save.push(got);
+        }
+        if k < samples {
+            fmu.do_step(t, dt);
+        }
+        if k == samples / 2 {
+            saved = Some(fmu.instance.get_fmu_state().expect("fmi2GetFMUstate"));
+        }
+    }
+    // Back to the saved state: the same smoothed outputs, bit for bit.
+    fmu.instance.set_fmu_state(saved.as_ref().unwrap()).ok().expect("fmi2SetFMUstate");
+    let mut replayed = Vec::new();
+    for k in samples / 2 + 1..=samples {
+        replayed.push(read(&mut fmu));
+        fmu.set_inputs(&z[k]);
+        fmu.set_controls(&u[k]);
+        replayed.push(read(&mut fmu));
+        if k < samples {
+            fmu.do_step(k as f64 * dt, dt);
+        }
+    }
+    assert_eq!(bits(&replayed), bits(&after_save), "{model}: the smoothed outputs after fmi2SetFMUstate");
+    Common::terminate(&mut fmu.instance).expect("fmi2Terminate");
+
+    // Without a lag the smoothed outputs are the estimates, of the time read.
+    let mut plain = Fmu::new(&import, setup, "plain");
+    plain.initialise(setup, samples as f64 * dt);
+    let estimates: Vec<u32> = states
+        .iter()
+        .map(|&i| plain.vr[setup.names(|r| r == Role::Estimate(i))[0]])
+        .chain(states.iter().map(|&i| plain.vr[setup.names(|r| r == Role::EstimateStd(i))[0]]))
+        .collect();
+    for k in 0..5 {
+        plain.set_inputs(&z[k]);
+        plain.set_controls(&u[k]);
+        plain.do_step(k as f64 * dt, dt);
+        let mut want = vec![0.0; estimates.len()];
+        Common::get_real(&mut plain.instance, &estimates, &mut want).expect("fmi2GetReal");
+        let got = read(&mut plain);
+        let count = want.len();
+        assert_eq!(bits(&[got[..count].to_vec()]), bits(&[want]), "{model}: lag 0 at step {k}");
+        assert!((got[count] - (k + 1) as f64 * dt).abs() < 1e-12, "{model}: smoothed_time with lag 0");
+    }
+}
+
+#[test]
+fn s1_smoothed_outputs_equal_the_library_fixed_lag_smoother() {
+    smoothed_outputs_equal_the_library_fixed_lag_smoother(&Setup::s1());
+}
+
+#[test]
+fn s2_smoothed_outputs_equal_the_library_fixed_lag_smoother() {
+    smoothed_outputs_equal_the_library_fixed_lag_smoother(&Setup::s2());
+}
+
+#[test]
+fn s3_smoothed_outputs_equal_the_library_fixed_lag_smoother() {
+    smoothed_outputs_equal_the_library_fixed_lag_smoother(&Setup::s3());
+}
+
+#[test]
+fn s4_smoothed_outputs_equal_the_library_fixed_lag_smoother() {
+    smoothed_outputs_equal_the_library_fixed_lag_smoother(&Setup::s4());
+}
+
+#[test]
+fn s5_smoothed_outputs_equal_the_library_fixed_lag_smoother() {
+    smoothed_outputs_equal_the_library_fixed_lag_smoother(&Setup::s5());
 }
 
 /// 400 samples, a saved state, 300 more; the state restored and serialised

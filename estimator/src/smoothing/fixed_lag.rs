@@ -189,27 +189,28 @@ impl FixedLagSmoother {
     }
 
     /// What [`Self::estimate`] would show after [`Self::push`] of this step to
-    /// `time`, without adding it (a read before the step is final). Fails, and
-    /// changes nothing held, where the push would start again.
+    /// `time`, without adding it (a read before the step is final): where the
+    /// push would start again, the step's own belief.
     pub fn estimate_with(
         &mut self,
         time: f64,
         transition: &Transition,
         mean: &DVector<f64>,
         covariance: &DMatrix<f64>,
-    ) -> Result<LaggedEstimate<'_>, FilterError> {
-        if self.len == 0 || self.capacity == 1 {
-            return Ok(self.own_estimate(time, mean, covariance));
+    ) -> LaggedEstimate<'_> {
+        if self.len == 0 || self.capacity == 1 || self.step.prepare(transition, mean, covariance).is_err() {
+            return self.own_estimate(time, mean, covariance);
         }
-        self.step.prepare(transition, mean, covariance)?;
         let index = usize::from(self.len == self.capacity);
         let slot = (self.head + index) % self.capacity;
         let (p, np) = (self.states.len(), self.n * self.states.len());
         self.scratch_rows.copy_from_slice(&self.rows[slot * np..(slot + 1) * np]);
         self.scratch_means.copy_from_slice(&self.means[slot * p..(slot + 1) * p]);
         self.scratch_variances.copy_from_slice(&self.variances[slot * p..(slot + 1) * p]);
-        self.step.advance(&mut self.scratch_rows, &mut self.scratch_means, &mut self.scratch_variances)?;
-        Ok(LaggedEstimate { time: self.times[slot], means: &self.scratch_means, variances: &self.scratch_variances })
+        if self.step.advance(&mut self.scratch_rows, &mut self.scratch_means, &mut self.scratch_variances).is_err() {
+            return self.own_estimate(time, mean, covariance);
+        }
+        LaggedEstimate { time: self.times[slot], means: &self.scratch_means, variances: &self.scratch_variances }
     }
 
     /// The smoothed states of the filtered belief `mean`, `covariance` at

@@ -84,6 +84,10 @@ pub struct Descriptor {
     /// The states of the model's unknown inputs (its augmented states): the
     /// only ones a jump moves (`estimator::Supervisor::with_jump_states`).
     pub unknown_inputs: &'static [usize],
+    /// The states the FMU also gives smoothed (`smoothing_lag`): what it is
+    /// there to estimate. Each has an estimate output, whose name the smoothed
+    /// outputs take with `_smoothed` and `_smoothed_std`.
+    pub smoothed_states: &'static [usize],
     guid: String,
 }
 
@@ -94,10 +98,34 @@ impl Descriptor {
     /// derives the GUID from the whole table.
     fn finish(mut self) -> Self {
         self.variables.extend(common_variables(self.default_experiment.step, self.default_filter, &self.supervision));
+        let smoothed: Vec<Variable> =
+            self.smoothed_states.iter().enumerate().flat_map(|(a, &i)| self.smoothed_outputs(a, i)).collect();
+        self.variables.extend(smoothed);
         let statuses: Vec<Variable> = self.variables.iter().filter_map(status_variable).collect();
         self.variables.extend(statuses);
         self.guid = guid_of(self.model_identifier, &self.variables);
         self
+    }
+
+    /// The outputs of the `a`-th smoothed state, state `i`, named after its
+    /// estimate output (none if it has none: [`check`] refuses that).
+    fn smoothed_outputs(&self, a: usize, i: usize) -> Vec<Variable> {
+        let Some(estimate) = self.variables.iter().find(|v| v.role == Role::Estimate(i)) else { return Vec::new() };
+        let unit = estimate.unit.unwrap_or("1");
+        let named = |suffix: &str, role: Role, description: &'static str| Variable {
+            name: format!("{}{suffix}", estimate.name).into(),
+            ..Variable::output("", unit, role, description)
+        };
+        vec![
+            named(
+                "_smoothed",
+                Role::Smoothed(a),
+                "the estimate of this quantity at smoothed_time (smoothing_lag before the time read, on the sample \
+                 grid) given the measurements up to the time read: the fixed-lag smoother's; the filter's own \
+                 estimate when smoothing_lag is 0",
+            ),
+            named("_smoothed_std", Role::SmoothedStd(a), "standard deviation of the smoothed estimate"),
+        ]
     }
 
     /// The GUID: a hash of the identifier, the crate version and the whole
@@ -349,6 +377,21 @@ fn common_variables(sample_time: f64, filter: FilterKind, supervision: &Supervis
         Variable::parameter("ukf_alpha", "1", 1e-3, "UKF spread alpha (UKF only)").bounded(Some(1e-9), None),
         Variable::parameter("ukf_beta", "1", 2.0, "UKF prior-knowledge parameter beta (UKF only)"),
         Variable::parameter("ukf_kappa", "1", 0.0, "UKF secondary scaling kappa (UKF only)"),
+        Variable::parameter(
+            "smoothing_lag",
+            "s",
+            0.0,
+            "how far back the <name>_smoothed outputs look: the estimate of that much earlier (rounded to whole \
+             samples) given the measurements up to the time read, a fixed-lag smoother; 0: off, they are the filter's",
+        )
+        .bounded(Some(0.0), None),
+        Variable::output(
+            "smoothed_time",
+            "s",
+            Role::SmoothedTime,
+            "the time the <name>_smoothed outputs describe: smoothing_lag before the time read, on the sample grid \
+             (the start until that much has passed; the time read when smoothing_lag is 0)",
+        ),
         Variable::output("nis", "1", Role::Nis, "normalised innovation squared of the last update"),
         Variable::output(
             "process_noise_scale",
@@ -436,6 +479,11 @@ pub fn check(descriptor: &Descriptor) -> Result<(), String> {
     for j in 0..descriptor.control_dim() {
         if !vars.iter().any(|v| v.role == Role::Control(j)) {
             return Err(format!("control {j} has no input"));
+        }
+    }
+    for &i in descriptor.smoothed_states {
+        if !vars.iter().any(|v| v.role == Role::Estimate(i)) {
+            return Err(format!("smoothed state {i} has no estimate output to name its smoothed outputs after"));
         }
     }
     if vars.iter().any(|v| matches!(v.role, Role::Derived(k) if k >= MAX_DERIVED)) {

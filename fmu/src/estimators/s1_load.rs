@@ -125,6 +125,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &Oscillator2DofLoad::UNKNOWN_INPUTS,
+        smoothed_states: &Oscillator2DofLoad::UNKNOWN_INPUTS,
         guid: String::new(),
     }
     .finish()

@@ -461,6 +461,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive,
         build_steps: no_quantized_steps,
         unknown_inputs: &WheelRailRoll::UNKNOWN_INPUTS,
+        smoothed_states: &WheelRailRoll::UNKNOWN_INPUTS,
         guid: String::new(),
     }
     .finish()

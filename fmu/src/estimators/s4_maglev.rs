@@ -270,6 +270,8 @@ pub(super) fn descriptor() -> Descriptor {
         derive,
         build_steps: steps,
         unknown_inputs: &PrwTrain::UNKNOWN_INPUTS,
+        // The motion: position, speed and acceleration (the offsets are means to it).
+        smoothed_states: &[0, 1, 2],
         guid: String::new(),
     }
     .finish()

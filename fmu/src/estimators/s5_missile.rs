@@ -232,6 +232,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &Missile6Dof::UNKNOWN_INPUTS,
+        smoothed_states: &Missile6Dof::UNKNOWN_INPUTS,
         guid: String::new(),
     }
     .finish()
