@@ -1107,7 +1107,7 @@ fn smoothed_outputs_equal_the_library_fixed_lag_smoother(setup: &Setup) {
             reference.predict(&u[k - 1], dt).unwrap();
             let got = read(&mut fmu);
             assert_eq!(
-                bits(&[got.clone()]),
+                bits(std::slice::from_ref(&got)),
                 bits(&[expected(&mut reference)]),
                 "{model}: after the step to sample {k}"
             );
@@ -1120,7 +1120,7 @@ fn smoothed_outputs_equal_the_library_fixed_lag_smoother(setup: &Setup) {
         reference.hold_input(&u[k]).unwrap();
         reference.update(&z[k], t).unwrap();
         let got = read(&mut fmu);
-        assert_eq!(bits(&[got.clone()]), bits(&[expected(&mut reference)]), "{model}: at sample {k}");
+        assert_eq!(bits(std::slice::from_ref(&got)), bits(&[expected(&mut reference)]), "{model}: at sample {k}");
         let time = *got.last().unwrap();
         let target = k.saturating_sub(lag) as f64 * dt;
         assert!((time - target).abs() < 1e-9 * (1.0 + t), "{model}: smoothed_time {time} at sample {k}, not {target}");
