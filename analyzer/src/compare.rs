@@ -338,7 +338,8 @@ pub fn compare_runs<'a>(runs: &'a [Run], options: &Options) -> Result<Comparison
 }
 
 /// The runs' short names: their filters if every run names a different one, else their
-/// files' stems if those differ, else `run 1`, `run 2`, ….
+/// files' stems if those differ, else `run 1`, `run 2`, …; a run seen through another
+/// estimate channel ([`crate::views`]) has the channel's name after it (`SRCKF smoothed`).
 fn labels(runs: &[Run]) -> Vec<String> {
     let distinct = |names: &[String]| {
         let mut sorted = names.to_vec();
@@ -346,12 +347,18 @@ fn labels(runs: &[Run]) -> Vec<String> {
         sorted.dedup();
         sorted.len() == names.len() && names.iter().all(|n| !n.is_empty())
     };
-    let filters: Vec<String> = runs.iter().map(|r| r.metadata.get("filter").cloned().unwrap_or_default()).collect();
+    let with_channel = |run: &Run, name: String| match run.metadata.get(crate::views::ESTIMATE_TOPIC) {
+        Some(topic) => format!("{name} {}", topic.trim_start_matches('/')),
+        None => name,
+    };
+    let named = |name: &dyn Fn(&Run) -> String| -> Vec<String> {
+        runs.iter().map(|r| if name(r).is_empty() { String::new() } else { with_channel(r, name(r)) }).collect()
+    };
+    let filters = named(&|r| r.metadata.get("filter").cloned().unwrap_or_default());
     if distinct(&filters) {
         return filters;
     }
-    let stems: Vec<String> =
-        runs.iter().map(|r| r.file.file_stem().map_or(String::new(), |s| s.to_string_lossy().into())).collect();
+    let stems = named(&|r| r.file.file_stem().map_or(String::new(), |s| s.to_string_lossy().into()));
     if distinct(&stems) {
         return stems;
     }

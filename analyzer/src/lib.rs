@@ -18,3 +18,4 @@ pub mod metrics;
 pub mod psd;
 pub mod report;
 pub mod rrd;
+pub mod views;

@@ -1,7 +1,7 @@
 //! `analyzer`: metrics and recordings from kalfmu MCAP logs.
 //!
 //! Usage:
-//!   analyzer report RUN.mcap… [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]… [--estimate-topic /prediction]
+//!   analyzer report RUN.mcap… [--json OUT.json] [--rrd OUT.rrd] [--pair truth.X=estimate.Y]… [--estimate-topic /smoothed]…
 //!   analyzer compare RUN.mcap…   (the same: several runs of one case, compared)
 //!
 //! Exit codes: 0 done, 1 the log or the analysis failed (the message names
@@ -13,6 +13,7 @@ use std::process::ExitCode;
 use analyzer::compare::compare_runs;
 use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
+use analyzer::views::views;
 use clap::{Parser, Subcommand};
 use log_format::read::read_log;
 use log_format::LogError;
@@ -53,9 +54,11 @@ struct ReportArgs {
     /// Welch segment length in samples.
     #[arg(long, default_value_t = 1024)]
     psd_segment: usize,
-    /// The channel of the estimates (e.g. /prediction: an FMU's outputs read right after each step).
-    #[arg(long, default_value = log_format::write::ESTIMATE)]
-    estimate_topic: String,
+    /// The channel of the estimates (e.g. /prediction: an FMU's outputs read right after
+    /// each step; /smoothed: its fixed-lag smoothed outputs). Repeated, each log is compared
+    /// through each channel, as that many runs (`/estimate` and `/smoothed`: filtered and smoothed).
+    #[arg(long, default_values_t = [log_format::write::ESTIMATE.to_string()])]
+    estimate_topic: Vec<String>,
     /// Take the metrics, the ±2σ coverage and the spectra from this time (s) on, leaving a
     /// filter's start-up out; the recording still shows the whole run.
     #[arg(long)]
@@ -83,15 +86,15 @@ fn main() -> ExitCode {
 fn run(cli: &Cli) -> Result<(), LogError> {
     match &cli.command {
         Command::Report(args) => {
-            let runs = args.logs.par_iter().map(|log| read_log(log)).collect::<Result<Vec<_>, _>>()?;
-            for warning in runs.iter().flat_map(|run| run.skip_warnings().into_iter().chain(run.recovery_warning())) {
+            let logs = args.logs.par_iter().map(|log| read_log(log)).collect::<Result<Vec<_>, _>>()?;
+            for warning in logs.iter().flat_map(|run| run.skip_warnings().into_iter().chain(run.recovery_warning())) {
                 eprintln!("warning: {warning}");
             }
+            let runs = views(&logs, &args.estimate_topic)?;
             let options = Options {
                 rmse_window: args.rmse_window,
                 psd_segment: args.psd_segment,
                 pairs: args.pairs.clone(),
-                estimate_topic: args.estimate_topic.clone(),
                 from: args.from.unwrap_or(f64::NEG_INFINITY),
                 ..Options::default()
             };

@@ -4,7 +4,8 @@
 //! feedthrough), `fmi2DoStep(t, dt)` is called, and the outputs are read again (the
 //! estimate at `t + dt` predicted from the measurements up to `t`). The log is the kalfmu
 //! MCAP format (`docs/log-format.md`): the measurements, the truth, both readings
-//! (`/estimate`, `/prediction`), and the run's metadata with the parameters set. Each
+//! (`/estimate`, `/prediction`), the fixed-lag smoothed outputs when the study asks for
+//! them (`/smoothed`), and the run's metadata with the parameters set. Each
 //! study says what its FMU is given and what its truth is; the protocol is here, once.
 
 use std::collections::BTreeMap;
@@ -12,11 +13,11 @@ use std::path::Path;
 
 use anyhow::{bail, Context};
 use estimator::FilterKind;
-use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
+use log_format::write::{ChannelId, LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, SMOOTHED, TRUTH};
 
 use start_values::StartValues;
 
-use crate::fmu_driver::{filter_enumeration, ImportedFmu};
+use crate::fmu_driver::{filter_enumeration, ImportedFmu, Instance};
 
 /// What a study gives the FMU and logs beside it.
 pub struct Setup<'a> {
@@ -34,6 +35,10 @@ pub struct Setup<'a> {
     pub inputs: &'a [(&'static str, &'static str)],
     /// The Real outputs logged on `/estimate` and `/prediction`.
     pub outputs: &'a [&'static str],
+    /// The outputs whose fixed-lag smoothed values (`<name>_smoothed`, `_smoothed_std`,
+    /// with `smoothing_lag` among the parameters) are logged on `/smoothed` as `<name>`
+    /// and `<name>_std`, each stamped with the `smoothed_time` it describes.
+    pub smoothed: &'a [&'static str],
     /// The truth's signals (those named as an output are compared with it).
     pub truth: &'a [SignalSpec],
     /// The study's metadata (study, case, seed, …); the filter, the parameters and the
@@ -63,7 +68,7 @@ pub fn run(
     log: &Path,
     mut progress: impl FnMut(usize),
 ) -> anyhow::Result<Counts> {
-    let Setup { fmu, filter, parameters, integers, start_values, inputs, outputs, .. } = *setup;
+    let Setup { fmu, filter, parameters, integers, start_values, inputs, outputs, smoothed, .. } = *setup;
     let (first, last) = (times[0], times[times.len() - 1]);
     let study = setup.metadata.get("study").cloned().unwrap_or_default();
     let case = setup.metadata.get("case").cloned().unwrap_or_default();
@@ -99,6 +104,7 @@ pub fn run(
         |what: &str| -> Vec<SignalSpec> { outputs.iter().map(|n| SignalSpec::new(n, &unit(n), what)).collect() };
     let ch_e = w.add_channel(ESTIMATE, &specs("FMU output read at t after the inputs of t were set"))?;
     let ch_p = w.add_channel(PREDICTION, &specs("FMU output read right after fmi2DoStep(t - dt, dt)"))?;
+    let mut lagged = Lagged::new(fmu, smoothed, &mut w)?;
 
     let mut out = vec![0.0; outputs.len()];
     for (k, &t) in times.iter().enumerate() {
@@ -109,6 +115,9 @@ pub fn run(
         w.write(ch_m, t, &z)?;
         w.write(ch_t, t, &truth(k))?;
         w.write(ch_e, t, &out)?;
+        if let Some(lagged) = lagged.as_mut() {
+            lagged.log(&mut instance, &mut w).with_context(context)?;
+        }
         if k + 1 < times.len() {
             instance.do_step(dt).with_context(context)?;
             instance.read(&output_vrs, &mut out).with_context(context)?;
@@ -128,4 +137,54 @@ pub fn run(
         bail!("{study} {case} {filter}: the FMU's input_timing_check says this master's ordering fits the other input_timing");
     }
     Ok(Counts { skipped: counts[0], rejected: counts[1] })
+}
+
+/// The fixed-lag smoothed outputs a run logs on `/smoothed`.
+struct Lagged {
+    channel: ChannelId,
+    /// `<name>_smoothed` and `<name>_smoothed_std` of each name, then `smoothed_time`.
+    vrs: Vec<u32>,
+    values: Vec<f64>,
+    /// The last time logged: the smoothed time stands at the start until the lag has passed.
+    last: f64,
+}
+
+impl Lagged {
+    fn new(fmu: &ImportedFmu, names: &[&str], w: &mut LogWriter) -> anyhow::Result<Option<Self>> {
+        if names.is_empty() {
+            return Ok(None);
+        }
+        let mut vrs = Vec::new();
+        let mut specs = Vec::new();
+        for name in names {
+            vrs.push(fmu.vr(&format!("{name}_smoothed"))?);
+            specs.push(SignalSpec::new(
+                name,
+                &fmu.unit(name),
+                "FMU fixed-lag smoothed output, stamped with smoothed_time",
+            ));
+        }
+        for name in names {
+            vrs.push(fmu.vr(&format!("{name}_smoothed_std"))?);
+            specs.push(SignalSpec::new(
+                &format!("{name}_std"),
+                &fmu.unit(name),
+                "standard deviation of the smoothed output",
+            ));
+        }
+        vrs.push(fmu.vr("smoothed_time")?);
+        let channel = w.add_channel(SMOOTHED, &specs)?;
+        Ok(Some(Self { channel, values: vec![0.0; vrs.len()], vrs, last: f64::NEG_INFINITY }))
+    }
+
+    /// Logs the smoothed outputs as read now, once per smoothed time.
+    fn log(&mut self, instance: &mut Instance, w: &mut LogWriter) -> anyhow::Result<()> {
+        instance.read(&self.vrs, &mut self.values)?;
+        let (time, values) = self.values.split_last().expect("smoothed_time is read");
+        if *time > self.last {
+            w.write(self.channel, *time, values)?;
+            self.last = *time;
+        }
+        Ok(())
+    }
 }

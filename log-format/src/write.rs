@@ -30,6 +30,9 @@ pub const ESTIMATE: &str = "/estimate";
 /// An estimator FMU's outputs read right after `fmi2DoStep(t, h)`, stamped
 /// `t + h`: the estimate there predicted from the measurements up to `t`.
 pub const PREDICTION: &str = "/prediction";
+/// Topic of the smoothed estimates: each stamped with the time it describes, given
+/// measurements after it too (an estimator FMU's fixed-lag outputs, `smoothing_lag`).
+pub const SMOOTHED: &str = "/smoothed";
 /// The name of the metadata record.
 pub const METADATA: &str = "kalfmu";
 /// The channels' message encoding.

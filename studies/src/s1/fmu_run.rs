@@ -1,6 +1,7 @@
 //! One S1 case through the packaged estimator FMU, driven as a co-simulation master
 //! drives it ([`cosim::master`]): the chain and the study's tuning as parameters, the
-//! two noisy accelerations as inputs; the log has the true load and motion beside them.
+//! two noisy accelerations as inputs; the log has the true load and motion beside them,
+//! and the FMU's fixed-lag smoothed load (`/smoothed`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -42,6 +43,7 @@ const OUTPUTS: [&str; 13] = [
 fn parameters(tuning: &Tuning, case: &Case, settings: &Settings) -> Vec<(&'static str, f64)> {
     let mut p = truth::s1::chain_parameters(&case.chain()).to_vec();
     p.push(("sample_time", settings.dt()));
+    p.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
     p.extend(tuning.fmu_parameters());
     p
 }
@@ -90,6 +92,7 @@ pub fn run(
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
+        smoothed: &["F"],
         truth: &truth_specs,
         metadata,
     };

@@ -24,6 +24,7 @@ use log_format::write::PREDICTION;
 use serde::Serialize;
 
 use crate::comparison::{compare_case, log_path, units, write_table};
+use crate::smoothed::{smoothed_figures, SmoothedFigures};
 use cosim::fmu_driver::ImportedFmu;
 use shard::Shard;
 use truth::s1::plant::Truth;
@@ -111,6 +112,9 @@ pub struct FilterFigures {
     /// The NIS of the run's updates against the measurement rows they used, the analyzer's
     /// (`null` if the run failed or its log has no `nis`).
     pub nis: Option<Nis>,
+    /// The FMU's fixed-lag smoothed load (`smoothing_lag`, on `/smoothed`) against the
+    /// truth (`null` if the run failed).
+    pub smoothed: Option<SmoothedFigures>,
 }
 
 /// The feedthrough reading's figures of the load.
@@ -210,6 +214,8 @@ struct Figures {
     after_step: Metrics,
     /// The σ figures.
     sigma: SigmaOfLoad,
+    /// The FMU's fixed-lag smoothed load.
+    smoothed: SmoothedFigures,
 }
 
 /// Each filter's figures of a case or why its run failed; or why the runs could not be
@@ -249,7 +255,11 @@ fn run_case(
         let after_step =
             runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
         let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
-        let loads = comparison.runs.iter().zip(&after_step).map(|(report, after)| {
+        let smoothed = runs.iter().map(|run| smoothed_figures(run, options, "F"));
+        let smoothed = smoothed
+            .collect::<anyhow::Result<Vec<_>>>()
+            .map_err(|e| log_format::LogError::Analysis { file: stem.into(), what: format!("{e:#}") })?;
+        let loads = comparison.runs.iter().zip(&after_step).zip(smoothed).map(|((report, after), smoothed)| {
             let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
                 return Err(format!("the report of {} has no load pair", report.file));
             };
@@ -259,7 +269,13 @@ fn run_case(
                 normalised_error: pair.normalised_error,
                 nis: report.nis.clone(),
             };
-            Ok(Figures { feedthrough: pair.metrics, band: pair.psd_agreement_band, after_step: after.metrics, sigma })
+            Ok(Figures {
+                feedthrough: pair.metrics,
+                band: pair.psd_agreement_band,
+                after_step: after.metrics,
+                sigma,
+                smoothed,
+            })
         });
         Ok(loads.collect::<Vec<_>>())
     });
@@ -274,7 +290,8 @@ fn run_case(
 /// The table's header line, its first column titled `first`.
 fn header(first: &str) -> String {
     format!(
-        "{:<22} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}  {:>6} {:>6} {:>17} {:>17}",
+        "{:<22} {:<8} {:>8} {:>6} {:>9} {:>9} {:>7} {:>10} {:>7} {:>7} {:>12}  {:>10} {:>10}  {:>6} {:>6} {:>17} {:>17}  \
+         {:>9} {:>9} {:>6}",
         first,
         "filter",
         "corr",
@@ -291,13 +308,16 @@ fn header(first: &str) -> String {
         "1σ F",
         "2σ F",
         "(e/σ)² F",
-        "NIS/rows"
+        "NIS/rows",
+        "smoothed",
+        "RMSE conv",
+        "2σ F"
     )
 }
 
 /// One filter's line of the table; the paper's columns blank without `paper`.
 fn line(label: &str, kind: FilterKind, f: &Figures, paper: Option<&super::Published>) -> String {
-    let (c, a, sigma) = (&f.feedthrough, &f.after_step, &f.sigma);
+    let (c, a, sigma, s) = (&f.feedthrough, &f.after_step, &f.sigma, &f.smoothed);
     let figure = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
     let (paper_corr, paper_peak, paper_max) = match paper {
         Some(p) => (format!("{:.3}", p.correlation), figure(p.running_rmse_peak), figure(p.running_rmse_max_converged)),
@@ -305,7 +325,7 @@ fn line(label: &str, kind: FilterKind, f: &Figures, paper: Option<&super::Publis
     };
     format!(
         "{:<22} {:<8} {:>8.5} {:>6} {:>9.4} {:>9.3} {:>7} {:>10.4} {:>7} {:>6.2}s {:>12}  {:>10.5} {:>10.4}  {:>6} \
-         {:>6} {:>17} {:>17}",
+         {:>6} {:>17} {:>17}  {:>9.5} {:>9.4} {:>6}",
         label,
         kind.name(),
         c.correlation,
@@ -322,7 +342,10 @@ fn line(label: &str, kind: FilterKind, f: &Figures, paper: Option<&super::Publis
         coverage(sigma.one_sigma_coverage),
         coverage(sigma.two_sigma_coverage),
         read(sigma.normalised_error.map(|n| (n.mean_square, n.reading))),
-        read(sigma.nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
+        read(sigma.nis.as_ref().and_then(|n| n.ratio.zip(n.reading))),
+        s.correlation,
+        s.rmse_converged,
+        coverage(s.two_sigma_coverage)
     )
 }
 
@@ -346,12 +369,13 @@ impl FilterFigures {
             }),
             after_step: Some(AfterStepFigures { correlation: a.correlation, rmse_converged: a.rmse_converged }),
             nis: f.sigma.nis,
+            smoothed: Some(f.smoothed),
         }
     }
 
     /// A failed run's entry.
     fn failed(kind: FilterKind, why: String) -> Self {
-        Self { filter: kind.name(), failure: Some(why), feedthrough: None, after_step: None, nis: None }
+        Self { filter: kind.name(), failure: Some(why), feedthrough: None, after_step: None, nis: None, smoothed: None }
     }
 }
 
@@ -540,6 +564,11 @@ pub fn report(
     )?;
     print!("{table}");
     println!("paper: {PAPER_SOURCE} (correlation; running-RMSE peak; bound after the start), N");
+    println!(
+        "smoothed: the FMU's fixed-lag smoothed load (smoothing_lag = {} s, the estimate of that much earlier given \
+         the measurements up to now; logged on /smoothed): correlation, RMSE after convergence, 2σ coverage",
+        crate::smoothed::SMOOTHING_LAG
+    );
     println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
     for recording in &recordings {
         println!("  {}", recording.display());

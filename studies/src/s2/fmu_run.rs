@@ -90,6 +90,7 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
+        smoothed: &[],
         truth: &forces,
         metadata,
     };

@@ -173,6 +173,7 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         start_values,
         inputs: &inputs,
         outputs: &OUTPUTS,
+        smoothed: &[],
         truth: &truth_specs,
         metadata,
     };

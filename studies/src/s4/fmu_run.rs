@@ -106,6 +106,7 @@ pub fn run(
         start_values,
         inputs: &INPUTS,
         outputs: &outputs,
+        smoothed: &[],
         truth: &truth,
         metadata,
     };

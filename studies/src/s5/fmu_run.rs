@@ -113,6 +113,7 @@ pub fn run(
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
+        smoothed: &[],
         truth: &coefficients,
         metadata,
     };
