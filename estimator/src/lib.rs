@@ -69,8 +69,8 @@ pub use model::{Component, Model, Observation, Process, VectorField, BLOCK_POINT
 pub use noise::Noise;
 pub use points::{CenterWeights, SigmaPoints, UnscentedParams};
 pub use smoothing::fixed_interval::{
-    cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, RootGaussian, SmoothingStep,
-    SquareRootStep,
+    cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, RootGaussian, RunRecorder,
+    SmoothingStep, SquareRootStep,
 };
 pub use smoothing::fixed_lag::{FixedLagSmoother, LaggedEstimate, Transition};
 pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};

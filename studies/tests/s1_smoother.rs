@@ -5,14 +5,16 @@
 //!   filtered and predicted Gaussians as the filter had them and the cross-covariance by
 //!   the filter's own rule (the cubature points for the CKF family, the unscented ones for
 //!   the UKF, the Jacobian for the EKF);
-//! - behind the supervisor, a row its gate rejected stays out of the smoothed pass;
+//! - behind the supervisor, a row its gate rejected stays out of the smoothed pass (the
+//!   loop's own transitions, gathered by `RunRecorder`);
 //! - the square-root form, from the SRCKF's roots, is the covariance form to rounding.
 
 use analyzer::metrics::{correlation, rmse};
 use estimator::models::Oscillator2DofLoad;
 use estimator::{
     cross_covariance, linearised_cross_covariance, smooth, smooth_square_root, Discretized, FilterKind, Gaussian,
-    RootGaussian, SigmaPoints, SmoothingStep, SquareRootStep, SupervisedFilter, Supervisor, SupervisorSettings,
+    RootGaussian, RunRecorder, Sample, SigmaPoints, SmoothingStep, SquareRootStep, SupervisedFilter, Supervisor,
+    SupervisorSettings,
 };
 use studies::s1::Tuning;
 use truth::s1::{simulate, Case, Settings};
@@ -83,8 +85,8 @@ fn on_s1_the_smoothed_load_is_never_worse_than_the_filtered_for_any_filter_kind(
     }
 }
 
-/// The SRCKF behind the supervisor as the FMU runs it over `rows`, smoothed; and the rows
-/// its gate rejected.
+/// The SRCKF behind the supervisor as the FMU runs it over `rows`, smoothed from the
+/// transitions the loop keeps (`RunRecorder`); and the rows its gate rejected.
 fn supervised_and_smoothed(
     case: &Case,
     settings: &Settings,
@@ -97,25 +99,11 @@ fn supervised_and_smoothed(
         .and_then(|s| s.with_jump_states(6, &Oscillator2DofLoad::UNKNOWN_INPUTS))
         .unwrap();
     let mut supervised = SupervisedFilter::new(filter, supervisor).unwrap();
-    let mut process = Discretized::rk4(Oscillator2DofLoad::new(case.chain()), tuning.rk4_substeps);
-    let points = SigmaPoints::cubature(6);
-    let (mut steps, mut last) = (Vec::new(), None::<Gaussian>);
-    for (k, z) in rows.iter().enumerate() {
-        let t = k as f64 * settings.dt();
-        if let Some(filtered) = last.take() {
-            supervised.predict(&[], settings.dt()).unwrap();
-            let f = supervised.filter();
-            let predicted = Gaussian { mean: f.mean().clone(), covariance: f.covariance() };
-            let cross =
-                cross_covariance(&mut process, &points, &filtered, t - settings.dt(), settings.dt(), &[]).unwrap();
-            steps.push(SmoothingStep { filtered, predicted, cross });
-        }
-        supervised.hold_input(&[]).unwrap();
-        supervised.update(z, t).unwrap();
-        let f = supervised.filter();
-        last = Some(Gaussian { mean: f.mean().clone(), covariance: f.covariance() });
-    }
-    (smooth(&steps, &last.unwrap()).unwrap(), supervised.supervisor().rejected())
+    supervised.keep_transitions();
+    let mut recorder = RunRecorder::new();
+    let samples = rows.iter().enumerate().map(|(k, z)| Sample { time: k as f64 * settings.dt(), z, controls: &[] });
+    supervised.run(settings.dt(), samples, |step| recorder.observe(step).unwrap()).unwrap();
+    (recorder.smooth().unwrap(), supervised.supervisor().rejected())
 }
 
 #[test]

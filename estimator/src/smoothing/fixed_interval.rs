@@ -170,6 +170,58 @@ pub fn smooth(steps: &[SmoothingStep], last: &Gaussian) -> Result<Vec<Gaussian>,
     Ok(smoothed)
 }
 
+/// What a supervised run's fixed-interval smoothing needs, gathered step by step from
+/// [`SupervisedFilter::run`](crate::SupervisedFilter::run)'s observer (the loop must keep
+/// its transitions, [`SupervisedFilter::keep_transitions`](crate::SupervisedFilter::keep_transitions)):
+/// each sample's filtered Gaussian and the transition to it. Holds about `3·n²` numbers per
+/// sample.
+#[derive(Debug, Clone, Default)]
+pub struct RunRecorder {
+    steps: Vec<SmoothingStep>,
+    last: Option<Gaussian>,
+}
+
+impl RunRecorder {
+    /// An empty recorder.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Takes a sample's step: the transition to it (from the belief of the sample before)
+    /// and its filtered belief. Fails if a sample after the first has no transition.
+    pub fn observe(&mut self, step: &crate::supervised::Step<'_>) -> Result<(), FilterError> {
+        self.push(step.filter, step.transition)
+    }
+
+    /// [`RunRecorder::observe`] for a driver that steps the loop itself: the filtered
+    /// belief of a sample and the transition to it (`None` for the first).
+    pub fn push(
+        &mut self,
+        filter: &dyn crate::filter::StateEstimator,
+        transition: Option<&crate::smoothing::fixed_lag::Transition>,
+    ) -> Result<(), FilterError> {
+        let filtered = Gaussian { mean: filter.mean().clone(), covariance: filter.covariance() };
+        if let Some(before) = self.last.take() {
+            let transition = transition.ok_or_else(|| {
+                FilterError::InvalidSetting("a smoothed run must keep its transitions (keep_transitions)".into())
+            })?;
+            self.steps.push(SmoothingStep {
+                filtered: before,
+                predicted: transition.predicted.clone(),
+                cross: transition.cross.clone(),
+            });
+        }
+        self.last = Some(filtered);
+        Ok(())
+    }
+
+    /// The smoothed Gaussians of every sample observed, in order ([`smooth`]).
+    pub fn smooth(&self) -> Result<Vec<Gaussian>, FilterError> {
+        let last = self.last.as_ref().ok_or_else(|| FilterError::InvalidSetting("no sample to smooth".into()))?;
+        smooth(&self.steps, last)
+    }
+}
+
 /// What the square-root backward pass needs of one filter step from `t_k` to `t_{k+1}`:
 /// roots (any square roots, `P = S·Sᵀ`), never covariances.
 #[derive(Debug, Clone, PartialEq)]

@@ -251,9 +251,30 @@ pub struct Estimates {
     pub rejected: u64,
 }
 
-/// Runs the filter of `kind` (the user's vehicle, the tuning's RK4 steps per sample) over the
-/// measurements, behind the supervisor with its default settings, as the FMU runs it: a
-/// row the gate rejects is left out of that update.
+/// The filter of `kind` on the user's vehicle (the tuning's RK4 steps per sample) behind
+/// the supervisor as the FMU has it: its default settings, the forces' noise adapting
+/// upwards only, jumps of the forces taken.
+pub fn supervised_filter(
+    kind: estimator::FilterKind,
+    vehicle: VerticalVehicle,
+    tuning: &Tuning,
+) -> Result<estimator::SupervisedFilter, String> {
+    use estimator::models::WheelRailVertical;
+    let model = estimator::Discretized::rk4(WheelRailVertical { vehicle }, tuning.rk4_substeps);
+    let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(&vehicle), tuning.unscented)
+        .map_err(|e| format!("setup: {e}"))?;
+    let unknown_inputs = &WheelRailVertical::UNKNOWN_INPUTS;
+    // The FMU's: the forces' noise adapts upwards only (see `kalfmu_fmu`'s S2 table), jumps taken.
+    let settings =
+        estimator::SupervisorSettings { min_process_noise_scale: 1.0, ..estimator::SupervisorSettings::default() };
+    let supervisor = estimator::Supervisor::new(settings, 7)
+        .and_then(|s| s.with_jump_states(filter.state_dim(), unknown_inputs))
+        .map_err(|e| format!("setup: {e}"))?;
+    estimator::SupervisedFilter::new(filter, supervisor).map_err(|e| format!("setup: {e}"))
+}
+
+/// Runs the filter of `kind` ([`supervised_filter`]) over the measurements as the FMU runs
+/// it: a row the gate rejects is left out of that update.
 pub fn run_filter(
     kind: estimator::FilterKind,
     vehicle: VerticalVehicle,
@@ -261,17 +282,7 @@ pub fn run_filter(
     measurements: &Measurements,
 ) -> Result<Estimates, String> {
     use estimator::models::WheelRailVertical;
-    let model = estimator::Discretized::rk4(WheelRailVertical { vehicle }, tuning.rk4_substeps);
-    let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(&vehicle), tuning.unscented)
-        .map_err(|e| format!("setup: {e}"))?;
-    let unknown_inputs = &estimator::models::WheelRailVertical::UNKNOWN_INPUTS;
-    // The FMU's: the forces' noise adapts upwards only (see `kalfmu_fmu`'s S2 table), jumps taken.
-    let settings =
-        estimator::SupervisorSettings { min_process_noise_scale: 1.0, ..estimator::SupervisorSettings::default() };
-    let supervisor = estimator::Supervisor::new(settings, 7)
-        .and_then(|s| s.with_jump_states(filter.state_dim(), unknown_inputs))
-        .map_err(|e| format!("setup: {e}"))?;
-    let mut supervised = estimator::SupervisedFilter::new(filter, supervisor).map_err(|e| format!("setup: {e}"))?;
+    let mut supervised = supervised_filter(kind, vehicle, tuning)?;
     let mut estimates = Estimates::default();
     let samples = measurements.accelerations.iter().enumerate().map(|(k, z)| estimator::Sample {
         time: k as f64 * tuning.dt,
