@@ -19,7 +19,10 @@
 //! the gated update and its commit) is `supervised/<model>/<settings>`, with the
 //! supervisor as it was before jumps and adaptation (`gate`, `SupervisorSettings::fixed`),
 //! with jumps of the model's unknown inputs (`jumps`, adaptation off) and with both, the
-//! default (`jumps+adaptation`). The last two differ by what the adaptation costs.
+//! default (`jumps+adaptation`). The last two differ by what the adaptation costs. The
+//! default with a fixed-lag smoother of the unknown inputs, 100 samples back, and its
+//! estimate read every step (`jumps+adaptation+lag100`: an FMU with `smoothing_lag`
+//! 0.1 s at 1 kHz) shows what the smoothed outputs cost beside it.
 //!
 //! The measurements are simulated once, before any timing: the same model from
 //! a non-zero initial state with seeded process noise, plus seeded measurement
@@ -244,23 +247,38 @@ impl FilterVisitor for Bench<'_> {
     }
 }
 
-/// The supervisor settings the supervised benchmarks compare, by name.
-fn supervisor_settings() -> [(&'static str, SupervisorSettings); 3] {
+/// The supervised loops the benchmarks compare, by name: the supervisor's settings and
+/// the fixed-lag smoother's lag in samples (0: none).
+fn supervised_variants() -> [(&'static str, SupervisorSettings, usize); 4] {
     let default = SupervisorSettings::default();
-    [("gate", default.fixed()), ("jumps", default.adaptive(0)), ("jumps+adaptation", default)]
+    [
+        ("gate", default.fixed(), 0),
+        ("jumps", default.adaptive(0), 0),
+        ("jumps+adaptation", default, 0),
+        ("jumps+adaptation+lag100", default, FIXED_LAG),
+    ]
 }
+
+/// The fixed-lag smoother's lag of the last variant: 0.1 s at 1 kHz, as an FMU's
+/// `smoothing_lag` of 0.1 s on S2 and S3 (the unknown inputs smoothed).
+const FIXED_LAG: usize = 100;
 
 /// The SRCKF of `case` through the supervised loop with each of [`supervisor_settings`],
 /// the jumps in `unknown_inputs`: allocations per step, then the timed cycle.
 fn bench_supervised<M: Model + Clone + 'static>(criterion: &mut Criterion, case: &Case<M>, unknown_inputs: &[usize]) {
     let n = case.model.state_dim();
-    let build = |settings: SupervisorSettings| {
+    let build = |settings: SupervisorSettings, lag: usize| {
         let filter = SquareRootCubature::new(case.model.clone(), case.noise.clone(), &case.prior)
             .unwrap_or_else(|e| panic!("{}: {e}", case.name));
         let supervisor = Supervisor::new(settings, case.m)
             .and_then(|s| s.with_jump_states(n, unknown_inputs))
             .unwrap_or_else(|e| panic!("{}: {e}", case.name));
-        SupervisedFilter::new(Box::new(filter), supervisor).unwrap_or_else(|e| panic!("{}: {e}", case.name))
+        let mut supervised =
+            SupervisedFilter::new(Box::new(filter), supervisor).unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        if lag > 0 {
+            supervised.smooth_with_lag(unknown_inputs, lag).unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        }
+        supervised
     };
     let cycle = |supervised: &mut SupervisedFilter, k: usize| {
         let step =
@@ -271,9 +289,13 @@ fn bench_supervised<M: Model + Clone + 'static>(criterion: &mut Criterion, case:
         supervised.take_events(|event| {
             black_box(event);
         });
+        // What an FMU's read of the smoothed outputs costs, when there are any.
+        if let Some(estimate) = supervised.lagged_estimate() {
+            black_box(estimate.means);
+        }
     };
-    for (name, settings) in supervisor_settings() {
-        let mut supervised = build(settings);
+    for (name, settings, lag) in supervised_variants() {
+        let mut supervised = build(settings, lag);
         for k in 0..=ALLOC_STEPS {
             if k == 1 {
                 ALLOCATIONS.store(0, Ordering::Relaxed);
@@ -285,8 +307,8 @@ fn bench_supervised<M: Model + Clone + 'static>(criterion: &mut Criterion, case:
     }
     let mut group = criterion.benchmark_group(format!("supervised/{}", case.name));
     group.sample_size(50).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2));
-    for (name, settings) in supervisor_settings() {
-        let mut supervised = build(settings);
+    for (name, settings, lag) in supervised_variants() {
+        let mut supervised = build(settings, lag);
         let mut next = 0usize;
         group.bench_function(name, |b| {
             b.iter_custom(|iters| {
@@ -294,7 +316,7 @@ fn bench_supervised<M: Model + Clone + 'static>(criterion: &mut Criterion, case:
                 for _ in 0..iters {
                     if next == STEPS {
                         // End of the sequence: a new loop, outside the timed region.
-                        supervised = build(settings);
+                        supervised = build(settings, lag);
                         next = 0;
                     }
                     let start = Instant::now();
