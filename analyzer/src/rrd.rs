@@ -115,9 +115,9 @@ pub fn write_rrd(comparison: &Comparison, runs: &[Run], path: &Path) -> Result<(
         .recording_id(recording_id.clone())
         // Explicitly on, so that RERUN=off cannot turn this stream into a no-op.
         .enabled(true)
-        .with_blueprint(blueprint(comparison, runs))
         .save(path)
         .map_err(|e| fail(e.to_string()))?;
+    send_blueprint(&rec, blueprint(comparison, runs), whole_run(comparison, runs)).map_err(fail)?;
     rec.set_log_time_enabled(false);
     rec.set_log_tick_enabled(false);
     let mut recording = Recording { rec, path, next_id: 0 };
@@ -670,6 +670,105 @@ fn metadata_rows(comparison: &Comparison) -> Vec<(String, Vec<String>)> {
     rows
 }
 
+/// How many times the largest RMSE the truth's range must be for its tab to open on
+/// the errors: at 1000 the error is under a pixel of a values view.
+pub const DWARFED: f64 = 1000.0;
+
+/// Whether the range of `pair`'s truth is more than [`DWARFED`] times every run's RMSE
+/// of it (`pairs`: the same signal in each run).
+fn dwarfs_its_error<'a>(pair: &PairReport<'_>, pairs: impl Iterator<Item = &'a PairReport<'a>>) -> bool {
+    let (low, high) = pair.truth_values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+        if v.is_finite() {
+            (a.min(v), b.max(v))
+        } else {
+            (a, b)
+        }
+    });
+    let error = pairs.map(|p| p.metrics.rmse).fold(0.0_f64, f64::max);
+    high - low > DWARFED * error && error > 0.0
+}
+
+/// The span of the run in the recording's timeline (ns): the first and last time of the
+/// compared series and the measurements.
+fn whole_run(comparison: &Comparison, runs: &[Run]) -> (i64, i64) {
+    let pairs = comparison.runs.iter().flat_map(|r| &r.pairs).map(|p| &*p.time);
+    let measured = runs.iter().filter_map(|r| r.channel(MEASUREMENTS).ok()).map(|c| c.time.as_slice());
+    let (first, last) = pairs.chain(measured).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+        (a.min(t.first().copied().unwrap_or(a)), b.max(t.last().copied().unwrap_or(b)))
+    });
+    if first <= last {
+        (nanoseconds(first), nanoseconds(last))
+    } else {
+        (0, 0)
+    }
+}
+
+/// Sends `blueprint` to `rec` with every view's time axis on `span` (ns), so that the
+/// views open on the whole run: the viewer's default is the 60 s around the time cursor,
+/// half of it empty at the start of a long run. The SDK's Rust blueprint API (0.36) has
+/// no setter for a view's time axis, so the blueprint the SDK builds is captured, and the
+/// `TimeAxis` property (`view/<id>/TimeAxis`, as the Python API logs it) is added to its
+/// store before it is sent.
+fn send_blueprint(rec: &RecordingStream, blueprint: Blueprint, span: (i64, i64)) -> Result<(), String> {
+    use rerun::blueprint::BlueprintActivation;
+    use rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis;
+    use rerun::external::re_sdk_types::blueprint::components::TimeRange;
+    use rerun::external::re_sdk_types::datatypes::{TimeInt, TimeRange as Range, TimeRangeBoundary};
+    use rerun::log::LogMsg;
+
+    let (capture, captured) =
+        RecordingStreamBuilder::new(APPLICATION_ID).enabled(true).memory().map_err(|e| e.to_string())?;
+    blueprint
+        .send(&capture, BlueprintActivation { make_active: true, make_default: true })
+        .map_err(|e| e.to_string())?;
+    capture.flush_blocking().map_err(|e| e.to_string())?;
+    let (mut messages, mut activation, mut store, mut views) = (Vec::new(), None, None, Vec::new());
+    for message in captured.take() {
+        match message {
+            LogMsg::BlueprintActivationCommand(command) => activation = Some(command),
+            LogMsg::SetStoreInfo(ref info) if info.info.store_id.is_blueprint() => {
+                store = Some(info.info.store_id.clone());
+                messages.push(message);
+            }
+            LogMsg::ArrowMsg(ref id, ref arrow) if id.is_blueprint() => {
+                let chunk = Chunk::from_arrow_msg(arrow).map_err(|e| e.to_string())?;
+                // A view's own entity, `view/<id>` (its properties are below it).
+                let path = chunk.entity_path();
+                if path.len() == 2 && path.iter().next().is_some_and(|part| part.unescaped_str() == "view") {
+                    views.push(path.clone());
+                }
+                messages.push(message);
+            }
+            _ => {}
+        }
+    }
+    let (Some(activation), Some(store)) = (activation, store) else {
+        return Err("the SDK sent no blueprint".into());
+    };
+    let (properties, written) = RecordingStreamBuilder::new(APPLICATION_ID)
+        .recording_id(store.recording_id().clone())
+        .enabled(true)
+        .blueprint()
+        .memory()
+        .map_err(|e| e.to_string())?;
+    properties.set_time_sequence("blueprint", 0);
+    let range = TimeRange(Range {
+        start: TimeRangeBoundary::Absolute(TimeInt(span.0)),
+        end: TimeRangeBoundary::Absolute(TimeInt(span.1)),
+    });
+    views.sort();
+    views.dedup();
+    for view in &views {
+        properties
+            .log(format!("{view}/TimeAxis"), &TimeAxis::new().with_view_range(range))
+            .map_err(|e| e.to_string())?;
+    }
+    properties.flush_blocking().map_err(|e| e.to_string())?;
+    messages.extend(written.take().into_iter().filter(|m| matches!(m, LogMsg::ArrowMsg(..))));
+    rec.send_blueprint(messages, activation);
+    Ok(())
+}
+
 /// One tab per signal (the signals with their bands; error and running RMSE side by side;
 /// the spectra), beside the report and the measurements (a view per unit).
 fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
@@ -679,35 +778,40 @@ fn blueprint(comparison: &Comparison, runs: &[Run]) -> Blueprint {
         .map(|r| r.pairs.as_slice())
         .unwrap_or_default()
         .iter()
-        .map(|p| {
+        .enumerate()
+        .map(|(k, p)| {
+            let dwarfed = dwarfs_its_error(p, comparison.runs.iter().map(|r| &r.pairs[k]));
             let name = pair_name(p);
             let titled = with_unit(&name, &p.unit);
             let note = envelope_note(p.time.len());
             let bands = if p.sigma.is_some() { " ± 2σ" } else { "" };
             let tolerance = p.tolerance.as_ref().map_or(String::new(), |t| format!(", tolerance ± {}", t.signal));
             let psd_unit = if p.unit.is_empty() { "1/Hz".to_string() } else { format!("{}²/Hz", p.unit) };
-            Vertical::new([
-                TimeSeriesView::new(format!("{titled}: truth and estimates{bands}{note}"))
-                    .with_origin(entity(&["signals", &name]))
+            let values: ContainerLike = TimeSeriesView::new(format!("{titled}: truth and estimates{bands}{note}"))
+                .with_origin(entity(&["signals", &name]))
+                .into();
+            let errors: ContainerLike = Horizontal::new([
+                TimeSeriesView::new(format!("{titled}: error (estimate − truth){tolerance}{note}"))
+                    .with_origin(entity(&["errors", &name]))
                     .into(),
-                Horizontal::new([
-                    TimeSeriesView::new(format!("{titled}: error (estimate − truth){tolerance}{note}"))
-                        .with_origin(entity(&["errors", &name]))
-                        .into(),
-                    TimeSeriesView::new(format!("{titled}: running RMSE over {window} s{note}"))
-                        .with_origin(entity(&["rmse", &name]))
-                        .into(),
-                ])
-                .into(),
-                Spatial2DView::new(format!(
-                    "{name}: PSD [{psd_unit}] against frequency [Hz], log-log, {MAX_DECADES} decades at most"
-                ))
-                .with_origin(entity(&["psd", &name]))
-                .into(),
+                TimeSeriesView::new(format!("{titled}: running RMSE over {window} s{note}"))
+                    .with_origin(entity(&["rmse", &name]))
+                    .into(),
             ])
-            .with_name(name)
-            .with_row_shares([2.0, 1.3, 1.7])
-            .into()
+            .into();
+            let spectra: ContainerLike = Spatial2DView::new(format!(
+                "{name}: PSD [{psd_unit}] against frequency [Hz], log-log, {MAX_DECADES} decades at most"
+            ))
+            .with_origin(entity(&["psd", &name]))
+            .into();
+            // Where the truth's range dwarfs the error (a position over a run, an altitude)
+            // the values are one line at any scale: the tab opens on the errors.
+            let (rows, shares) = if dwarfed {
+                ([errors, values, spectra], [2.0, 1.3, 1.7])
+            } else {
+                ([values, errors, spectra], [2.0, 1.3, 1.7])
+            };
+            Vertical::new(rows).with_name(name).with_row_shares(shares).into()
         })
         .collect();
     let mut side: Vec<ContainerLike> = vec![TextDocumentView::new("report").with_origin("report").into()];
@@ -773,4 +877,9 @@ fn unit_groups(signals: &[Signal]) -> Vec<(&str, Vec<&str>)> {
         }
     }
     groups
+}
+
+/// A time of the recording's timeline, seconds → its integer nanoseconds.
+fn nanoseconds(seconds: f64) -> i64 {
+    (seconds * 1e9).round() as i64
 }

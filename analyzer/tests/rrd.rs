@@ -288,6 +288,40 @@ fn the_recording_holds_the_spectra_the_tables_and_a_blueprint() {
     assert_eq!(measurements.unwrap().2, ["$origin/**"], "a channel of one unit is one view of it all");
 }
 
+/// Every view opens on the whole run (the viewer's default would be 30 s either side of
+/// the time cursor): its time axis, a `TimeAxis` property of the view, spans the first to
+/// the last sample.
+#[test]
+fn every_view_opens_on_the_whole_run() {
+    use rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis;
+    use rerun::external::re_sdk_types::blueprint::components::TimeRange;
+    use rerun::external::re_sdk_types::datatypes::{TimeInt, TimeRangeBoundary};
+    let n = 2000;
+    let (_, _, rrd) = written("range", n);
+    let last = ((n - 1) as f64 * 0.01 * 1e9).round() as i64;
+    let mut time_series = 0;
+    for chunk in &rrd.blueprint {
+        if strings(chunk, ViewBlueprint::descriptor_class_identifier()) != ["TimeSeries"] {
+            continue;
+        }
+        time_series += 1;
+        let axis = chunk.entity_path().join(&EntityPath::from_single_string("TimeAxis"));
+        let ranges: Vec<TimeRange> = rrd
+            .blueprint
+            .iter()
+            .filter(|c| *c.entity_path() == axis)
+            .flat_map(|c| {
+                let rows = c.iter_component::<TimeRange>(TimeAxis::descriptor_view_range().component);
+                rows.flat_map(|row| row.to_vec()).collect::<Vec<_>>()
+            })
+            .collect();
+        assert_eq!(ranges.len(), 1, "{axis}: one view range");
+        assert_eq!(ranges[0].0.start, TimeRangeBoundary::Absolute(TimeInt(0)), "{axis}");
+        assert_eq!(ranges[0].0.end, TimeRangeBoundary::Absolute(TimeInt(last)), "{axis}");
+    }
+    assert_eq!(time_series, 4, "the signal, its error, its running RMSE and the measurements");
+}
+
 #[test]
 fn measurements_in_several_units_get_a_view_per_unit() {
     // Units interleaved, as a missile's rates, altitude and rates again would be: the views
