@@ -300,6 +300,9 @@ pub struct Comparison<'a> {
     /// The label of the best run for each consistency figure that has a best
     /// ([`RUN_COLUMNS`]' keys); empty with a single run.
     pub best_consistency: BTreeMap<String, String>,
+    /// What a reader of the report should know beyond the figures (e.g. which runs a
+    /// recording leaves out, and why), a paragraph each; empty unless a driver adds some.
+    pub notes: Vec<String>,
 }
 
 /// Analyses each run (on every core) and compares them; refuses runs that do not share
@@ -334,7 +337,7 @@ pub fn compare_runs<'a>(runs: &'a [Run], options: &Options) -> Result<Comparison
             }
         }
     }
-    Ok(Comparison { labels, runs: reports, best, best_consistency })
+    Ok(Comparison { labels, runs: reports, best, best_consistency, notes: Vec::new() })
 }
 
 /// The runs' short names: their filters if every run names a different one, else their

@@ -552,6 +552,9 @@ fn markdown(comparison: &Comparison) -> String {
             ""
         }
     );
+    for note in &comparison.notes {
+        let _ = writeln!(md, "{note}\n");
+    }
     for k in 0..first.pairs.len() {
         let pairs: Vec<&PairReport> = comparison.runs.iter().map(|r| &r.pairs[k]).collect();
         let p = pairs[0];

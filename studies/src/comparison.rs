@@ -9,10 +9,37 @@ use analyzer::compare::{compare_runs, Comparison};
 use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
 use anyhow::Context;
+use estimator::FilterKind;
 use log_format::read::{Channel, Run};
 
 /// One case's runs compared: the comparison, written as `<stem>.json` and as the Rerun
-/// recording `<stem>.rrd`, whose path is returned with it.
+/// recording `<stem>.rrd`, whose path is returned with it. Where every run agrees with the
+/// run of `default` (the FMU's default filter) within that run's σ at every sample, the
+/// recording holds that run alone, its report naming the others and how far they are (in
+/// σ): five overlaid lines identical to four digits show nothing a reviewer can use. The
+/// JSON and the returned comparison keep every run.
+pub fn compare_case_standing_in<'a>(
+    runs: &'a [Run],
+    options: &Options,
+    stem: &Path,
+    default: FilterKind,
+) -> Result<(Comparison<'a>, PathBuf), log_format::LogError> {
+    let comparison = compare_runs(runs, options)?;
+    let recording = stem.with_extension("rrd");
+    comparison.write_json(&stem.with_extension("json"))?;
+    match stand_in(&comparison, default) {
+        Some((index, note)) => {
+            let alone = &runs[index..=index];
+            let mut shown = compare_runs(alone, options)?;
+            shown.notes.push(note);
+            write_rrd(&shown, alone, &recording)?;
+        }
+        None => write_rrd(&comparison, runs, &recording)?,
+    }
+    Ok((comparison, recording))
+}
+
+/// [`compare_case_standing_in`] without a stand-in: the recording holds every run.
 pub fn compare_case<'a>(
     runs: &'a [Run],
     options: &Options,
@@ -23,6 +50,46 @@ pub fn compare_case<'a>(
     comparison.write_json(&stem.with_extension("json"))?;
     write_rrd(&comparison, runs, &recording)?;
     Ok((comparison, recording))
+}
+
+/// The run of `default` and the note that it stands for the others, if there are others
+/// and each one's estimates are within the `default` run's σ of its own at every compared
+/// sample, for every signal (each signal must have a σ).
+fn stand_in(comparison: &Comparison, default: FilterKind) -> Option<(usize, String)> {
+    let runs = &comparison.runs;
+    let index = runs.iter().position(|r| r.metadata.get("filter").map(String::as_str) == Some(default.name()))?;
+    if runs.len() < 2 {
+        return None;
+    }
+    let mut distances = Vec::new();
+    for (i, run) in runs.iter().enumerate().filter(|(i, _)| *i != index) {
+        let mut largest = 0.0_f64;
+        for (own, other) in runs[index].pairs.iter().zip(&run.pairs) {
+            let sigma = own.sigma.as_ref()?;
+            if own.estimate_values.len() != other.estimate_values.len() {
+                return None;
+            }
+            for ((a, b), s) in own.estimate_values.iter().zip(other.estimate_values.iter()).zip(sigma.iter()) {
+                let distance = (a - b).abs() / s;
+                // Missing in both agrees; missing in one, or a σ of 0 or NaN, does not.
+                if distance.is_nan() && !(a.is_nan() && b.is_nan()) {
+                    return None;
+                }
+                largest = largest.max(distance);
+            }
+        }
+        if largest > 1.0 {
+            return None;
+        }
+        distances.push(format!("{} {largest:.2}", comparison.labels[i]));
+    }
+    let note = format!(
+        "**One run stands for all.** Every filter kind's estimates are within the {default}'s σ of its own at every \
+         sample (largest |difference| / σ: {}), so this recording shows the {default} (the FMU's default) alone; \
+         every run's figures are in the comparison's JSON and in the printed table.",
+        distances.join(", ")
+    );
+    Some((index, note))
 }
 
 /// The signals `names` of `channel`, one row per sample.
@@ -72,6 +139,42 @@ pub fn units(pairs: &[(&'static str, &'static str)]) -> BTreeMap<&'static str, &
 #[cfg(test)]
 mod tests {
     use super::*;
+    use log_format::read::Signal;
+    use log_format::write::{SignalSpec, ESTIMATE, TRUTH};
+
+    /// A run of `filter` whose estimate of `F` is the truth plus `offset`, σ 0.1.
+    fn run(filter: &str, offset: f64) -> Run {
+        let time: Vec<f64> = (0..50).map(|k| k as f64 * 0.01).collect();
+        let truth: Vec<f64> = time.iter().map(|t| (3.0 * t).sin()).collect();
+        let signal = |name: &str, values: Vec<f64>| Signal { spec: SignalSpec::new(name, "N", ""), values };
+        let channel = |topic: &str, signals: Vec<Signal>| Channel { topic: topic.into(), time: time.clone(), signals };
+        Run {
+            file: format!("{filter}.mcap").into(),
+            metadata: BTreeMap::from([("filter".to_string(), filter.to_string())]),
+            channels: vec![
+                channel(TRUTH, vec![signal("F", truth.clone())]),
+                channel(
+                    ESTIMATE,
+                    vec![signal("F", truth.iter().map(|v| v + offset).collect()), signal("F_std", vec![0.1; 50])],
+                ),
+            ],
+            skipped: Vec::new(),
+            damage: None,
+        }
+    }
+
+    #[test]
+    fn the_default_stands_for_kinds_within_its_sigma_and_not_for_one_beyond() {
+        let agreeing = [run("CKF", 0.05), run("SRCKF", 0.0)];
+        let comparison = compare_runs(&agreeing, &Options::default()).unwrap();
+        let (index, note) = stand_in(&comparison, FilterKind::SrCkf).expect("within σ");
+        assert_eq!(index, 1);
+        assert!(note.contains("CKF 0.50"), "{note}");
+        let apart = [run("CKF", 0.15), run("SRCKF", 0.0)];
+        assert!(stand_in(&compare_runs(&apart, &Options::default()).unwrap(), FilterKind::SrCkf).is_none());
+        // No run of the default: nothing stands in.
+        assert!(stand_in(&comparison, FilterKind::Ukf).is_none());
+    }
 
     #[test]
     fn a_table_is_written_to_table_json_in_its_directory_with_nan_as_null() {

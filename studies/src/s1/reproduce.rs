@@ -23,7 +23,7 @@ use log_format::write::PREDICTION;
 
 use serde::Serialize;
 
-use crate::comparison::{compare_case, log_path, units, write_table};
+use crate::comparison::{compare_case_standing_in, log_path, units, write_table};
 use crate::smoothed::{smoothed_figures, SmoothedFigures};
 use cosim::fmu_driver::ImportedFmu;
 use shard::Shard;
@@ -166,9 +166,13 @@ const UNITS: [(&str, &str); 8] = [
 /// table: the ends of the 1–5 % the study covers.
 const UNSEEN_NOISE: [f64; 2] = [0.01, 0.05];
 
+/// The FMU's default filter: its run stands for the others in a case's recording when they
+/// all agree within its σ (`comparison::compare_case`).
+const DEFAULT_FILTER: FilterKind = FilterKind::SrCkf;
+
 /// The filter of the unseen cases: the paper's, and the FMU's default. Every kind on each
 /// of them at three noise levels would be 90 runs more, over four times the table's time.
-const UNSEEN_FILTER: FilterKind = FilterKind::SrCkf;
+const UNSEEN_FILTER: FilterKind = DEFAULT_FILTER;
 
 /// The unseen cases the table adds, each with its noise fraction: with `quick`, one short
 /// one at the run's noise (the band to 20 Hz, twice the bandwidth the set-up assumes; the
@@ -250,7 +254,7 @@ fn run_case(
         rows.push((kind, result));
     }
     let mut recording = None;
-    let compared = compare_case(&runs, options, stem).and_then(|(comparison, written)| {
+    let compared = compare_case_standing_in(&runs, options, stem, DEFAULT_FILTER).and_then(|(comparison, written)| {
         recording = Some(written);
         let after_step =
             runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
