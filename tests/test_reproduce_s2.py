@@ -19,6 +19,9 @@ from the `table.json` it writes beside its logs.
   through the FMU and in-process alike, with finite correlations and its σ figures.
 - Start values given with `--set` are printed and written in the settings; one the
   in-process filter has reaches it too, so the FMU still equals the library.
+- Every run also has the FMU's fixed-lag smoothed forces (`smoothing_lag` 0.1 s), each
+  wheel's figures and the worst wheel's beside the filtered ones; the SRCKF's smoothed
+  forces correlate with the truth no worse than its filtered forces.
 """
 
 from __future__ import annotations
@@ -39,6 +42,8 @@ PAPER = {
     "weld": {"correlation": 0.969, "running_rmse_mean": 0.101, "running_rmse_variance": 0.004},
 }
 READINGS = {"consistent", "too wide", "too narrow"}
+# The FMU's smoothing_lag in every run (s).
+SMOOTHING_LAG = 0.1
 
 
 UNSEEN_TRACKS = {"random/german-low", "random/german-high", "random/fra6"}
@@ -241,3 +246,27 @@ def test_a_start_value_the_library_has_reaches_both_the_fmu_and_the_library(kalf
         # The runs moved, and the in-process filter moved with the FMU.
         assert run["wheels"][0]["rmse"] != before[key]["wheels"][0]["rmse"], key
         assert run["fmu_vs_in_process_max_abs_difference"] == 0.0, key
+
+
+def test_every_run_has_its_smoothed_forces_and_the_srckf_s_are_no_worse_than_its_filtered(reproduced):
+    _, table = reproduced
+    worse = []
+    for case in table["cases"]:
+        for run in case["filters"]:
+            where = (case["case"], run["filter"])
+            wheels = run["wheels"]
+            for w in wheels:
+                smoothed = w["smoothed"]
+                assert smoothed["lag"] == SMOOTHING_LAG, where
+                assert -1.0 <= smoothed["correlation"] <= 1.0 and smoothed["rmse"] > 0, (where, w["wheelset"])
+                # Over the truth's dynamic σ where the smoothed forces are: up to one lag before the end.
+                assert smoothed["rmse_over_dynamic_std"] == pytest.approx(smoothed["rmse"] / w["dynamic_std"], rel=0.1)
+                assert 0.0 <= smoothed["one_sigma_coverage"] <= smoothed["two_sigma_coverage"] <= 1.0, where
+                # A smoother has the filter's data and more: the study's filter gets no worse.
+                if run["filter"] == "SRCKF" and smoothed["correlation"] < w["correlation"] - 0.01:
+                    worse.append((where, w["wheelset"], w["correlation"], smoothed["correlation"]))
+            worst = run["worst_wheel"]["smoothed"]
+            assert worst["correlation_min"] == min(w["smoothed"]["correlation"] for w in wheels), where
+            assert worst["rmse_over_dynamic_std_max"] == max(w["smoothed"]["rmse_over_dynamic_std"] for w in wheels)
+            assert worst["two_sigma_coverage_min"] == min(w["smoothed"]["two_sigma_coverage"] for w in wheels)
+    assert worse == [], worse

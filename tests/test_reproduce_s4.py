@@ -11,6 +11,9 @@ the `table.json` it writes beside its logs.
 - Beside its accuracy, each filter's σ of speed and position is checked by the analyzer's
   figures, which the table carries as the comparison has them: their 1σ and 2σ coverage,
   mean (e/σ)² with its reading, and the run's NIS/rows with its reading.
+- Every FMU run also smooths its speed and position (the FMU's fixed lag, 0.1 s = 5
+  telegrams): each filter's smoothed figures are in the table, scored as ours; ours
+  smoothed is printed below ours and is no worse than it.
 - Beside the paper's run with the default faults, the same run with the frequent faults
   (ten times the rates), a case the settings were not chosen on: marked so, with more
   faults of every kind, ours and the paper's detections and accuracy, the FMU still equal
@@ -154,6 +157,34 @@ def test_the_sigma_figures_are_the_comparisons(reproduced, paper_run):
             for field in ["one_sigma_coverage", "two_sigma_coverage", "normalised_error"]:
                 assert f[signal][field] == pair[field], (f["filter"], signal, field)
         assert f["nis"] == run["nis"], f["filter"]
+
+
+def test_every_run_has_its_smoothed_figures_and_ours_smoothed_is_no_worse(reproduced, paper_run, frequent_run):
+    """Each filter's smoothed speed and position (`/smoothed`, the estimate of 0.1 s
+    before the newest telegram) scored from telegram 1 to the last the lag leaves, n − 6;
+    ours' (the SRCKF's) no worse than its filtered speed and position by more than 5 %,
+    on both fault models."""
+    out, _ = reproduced
+    text = (out / "stdout.txt").read_text().splitlines()
+    for run in [paper_run, frequent_run]:
+        c = run["comparison"]
+        raw = c["raw_average"]["speed"]["mean_abs_error"]
+        for f in run["filters"]:
+            s, where = f["smoothed"], (run["case"], f["filter"])
+            assert s is not None and s["lag"] == 0.1 and s["telegrams"] == run["telegrams"] - 6, where
+            assert s["speed"]["error"]["n"] == s["telegrams"] and 0.0 <= s["in_etcs_band_fraction"] <= 1.0, where
+            assert s["mean_abs_error_reduction_from_raw"] == pytest.approx(1 - s["speed"]["mean_abs_error"] / raw)
+            for signal in ["speed_sigma", "position_sigma"]:
+                assert 0.0 <= s[signal]["one_sigma_coverage"] <= s[signal]["two_sigma_coverage"] <= 1.0, where
+        (smoothed,) = [f["smoothed"] for f in run["filters"] if f["filter"] == run["compared_filter"]]
+        filtered = c["ours"]
+        for figure in ["mean_abs_error", "max_abs_error"]:
+            assert smoothed["speed"][figure] <= 1.05 * filtered["speed"][figure], (run["case"], figure)
+        assert smoothed["position_max_abs_error"] <= 1.05 * filtered["position_max_abs_error"], run["case"]
+        assert smoothed["in_etcs_band_fraction"] >= filtered["in_etcs_band_fraction"], run["case"]
+    # Printed in the speed table, right below ours.
+    rows = [i for i, line in enumerate(text) if line.startswith("ours smoothed (0.1 s) ")]
+    assert len(rows) == 2 and all(text[i - 1].startswith("ours ") for i in rows), rows
 
 
 def detections(run: dict, detector: str) -> dict:

@@ -167,7 +167,7 @@ const UNITS: [(&str, &str); 8] = [
 const UNSEEN_NOISE: [f64; 2] = [0.01, 0.05];
 
 /// The FMU's default filter: its run stands for the others in a case's recording when they
-/// all agree within its σ (`comparison::compare_case`).
+/// all agree within its σ (`comparison::compare_case_standing_in`).
 const DEFAULT_FILTER: FilterKind = FilterKind::SrCkf;
 
 /// The filter of the unseen cases: the paper's, and the FMU's default. Every kind on each

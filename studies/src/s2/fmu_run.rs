@@ -1,7 +1,8 @@
 //! One S2 case through the packaged estimator FMU (`kalfmu_s2_wheel_rail`), driven as a
 //! co-simulation master drives it ([`cosim::master`]). The FMU gets the user's
 //! vehicle and the study's tuning as parameters, by name, as a user would set them in
-//! their simulator; the log has the seven accelerations and the four true forces.
+//! their simulator; the log has the seven accelerations and the four true forces, and the
+//! FMU's fixed-lag smoothed forces (`/smoothed`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -33,12 +34,16 @@ const INPUTS: [(&str, &str); 7] = [
 /// The FMU's outputs that are logged; the forces have their namesakes in the truth.
 const OUTPUTS: [&str; 9] = ["F_N1", "F_N2", "F_N3", "F_N4", "F_N1_std", "F_N2_std", "F_N3_std", "F_N4_std", "nis"];
 
+/// The FMU's forces, whose fixed-lag smoothed values are logged on `/smoothed`.
+const SMOOTHED: [&str; 4] = ["F_N1", "F_N2", "F_N3", "F_N4"];
+
 /// What the user sets in the FMU: their catalogue vehicle, the static wheel load as weighed,
-/// the sample time and the study's tuning (its Real parameters; [`Tuning::fmu_integers`]
-/// has the others).
+/// the sample time, the smoothing lag ([`crate::smoothed::SMOOTHING_LAG`]) and the study's
+/// tuning (its Real parameters; [`Tuning::fmu_integers`] has the others).
 pub fn parameters(catalogue: &Vehicle, weighed: f64, tuning: &Tuning) -> Vec<(&'static str, f64)> {
     let mut p = catalogue.fmu_parameters().to_vec();
     p.extend([("static_wheel_load", weighed), ("sample_time", tuning.dt)]);
+    p.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
     p.extend(tuning.fmu_parameters());
     p
 }
@@ -90,7 +95,7 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
-        smoothed: &[],
+        smoothed: &SMOOTHED,
         truth: &forces,
         metadata,
     };

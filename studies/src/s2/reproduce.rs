@@ -22,7 +22,11 @@
 //!   wheel whose (e/σ)² is the farthest from 1 (in ratio);
 //! - **vs library**: the largest difference between the FMU's forces and the same filter
 //!   run in-process on the same measurements (`study::run_filter`): the FMU in a
-//!   co-simulation must give what our own runs give.
+//!   co-simulation must give what our own runs give;
+//! - **smoothed**: the FMU's fixed-lag smoothed forces (its `smoothing_lag`,
+//!   [`SMOOTHING_LAG`], logged on `/smoothed` at the times they describe), taken like the
+//!   filtered ones: their correlation, RMSE over the true force's dynamic σ and share inside
+//!   their own ±2σ (the run's last lag has no smoothed estimate yet).
 //!
 //! Then the unseen tracks, spectra the set-up was not made for (German low and high
 //! interference, FRA class 6), each at its own speed between 40 and 160 km/h, at both
@@ -46,12 +50,13 @@ use analyzer::report::{analyse, Options, PairReport};
 use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::read_log;
-use log_format::write::{ESTIMATE, PREDICTION};
+use log_format::write::{ESTIMATE, PREDICTION, SMOOTHED};
 use serde::Serialize;
 
 use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::study::{run_filter, user_vehicle, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case_standing_in, largest_difference, log_path, rows_of, units, write_table};
+use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::Counts;
 use shard::Shard;
@@ -236,6 +241,19 @@ pub struct WorstWheel {
     pub normalised_error_worst: Option<NormalisedError>,
     /// The lowest correlation of the forces read right after the step.
     pub after_step_correlation_min: f64,
+    /// The worst of the four wheels' smoothed forces.
+    pub smoothed: SmoothedWorstWheel,
+}
+
+/// The worst figure of the four wheels' fixed-lag smoothed forces, each on its own wheel.
+#[derive(Debug, Serialize)]
+pub struct SmoothedWorstWheel {
+    /// The lowest correlation.
+    pub correlation_min: f64,
+    /// The largest RMSE over the true force's dynamic σ.
+    pub rmse_over_dynamic_std_max: f64,
+    /// The lowest share of errors inside the smoothed ±2σ.
+    pub two_sigma_coverage_min: Option<f64>,
 }
 
 /// One wheel's figures, the force read at t after the inputs of t were set.
@@ -267,12 +285,46 @@ pub struct WheelTable {
     pub normalised_error: Option<NormalisedError>,
     /// Correlation of the force read right after the step with the truth at t + dt.
     pub after_step_correlation: f64,
+    /// The FMU's fixed-lag smoothed force.
+    pub smoothed: SmoothedWheel,
+}
+
+/// One wheel's fixed-lag smoothed force (the FMU's `smoothing_lag`, on `/smoothed`) against
+/// the truth, its figures taken as the filtered force's.
+#[derive(Debug, Serialize)]
+pub struct SmoothedWheel {
+    /// The smoothing lag (s).
+    pub lag: f64,
+    /// Correlation with the true force.
+    pub correlation: f64,
+    /// RMSE (kN).
+    pub rmse: f64,
+    /// RMSE over the true force's dynamic σ.
+    pub rmse_over_dynamic_std: f64,
+    /// Share of the errors inside the smoothed ±σ (`null` without σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// Share of the errors inside the smoothed ±2σ (`null` without σ).
+    pub two_sigma_coverage: Option<f64>,
+}
+
+impl SmoothedWheel {
+    /// From the smoothed force's figures `s`.
+    fn new(s: &WheelFigures) -> Self {
+        Self {
+            lag: SMOOTHING_LAG,
+            correlation: s.correlation,
+            rmse: s.rmse / 1e3,
+            rmse_over_dynamic_std: s.rmse / s.dynamic_std,
+            one_sigma_coverage: Some(s.one_sigma).filter(|c| !c.is_nan()),
+            two_sigma_coverage: Some(s.two_sigma).filter(|c| !c.is_nan()),
+        }
+    }
 }
 
 impl WheelTable {
-    /// Wheelset `wheelset`'s table entry of `case` from its figures `w` and those after
-    /// the step `a`.
-    fn new(case: Case, wheelset: usize, w: &WheelFigures, a: &WheelFigures) -> Self {
+    /// Wheelset `wheelset`'s table entry of `case` from its figures `w`, those after the
+    /// step `a` and those of its smoothed force `s`.
+    fn new(case: Case, wheelset: usize, w: &WheelFigures, a: &WheelFigures, s: &WheelFigures) -> Self {
         Self {
             wheelset,
             correlation: w.correlation,
@@ -287,17 +339,19 @@ impl WheelTable {
             one_sigma_coverage: Some(w.one_sigma).filter(|c| !c.is_nan()),
             normalised_error: w.normalised_error,
             after_step_correlation: a.correlation,
+            smoothed: SmoothedWheel::new(s),
         }
     }
 }
 
 /// The units of S2's [`Table`].
-const UNITS: [(&str, &str); 13] = [
+const UNITS: [(&str, &str); 14] = [
     ("speed", "m/s"),
     ("duration", "s"),
     ("rate", "Hz"),
     ("settle", "s"),
     ("rmse_window", "s"),
+    ("lag", "s"),
     ("rmse", "kN"),
     ("running_rmse_mean", "kN"),
     ("running_rmse_variance", "kN²"),
@@ -362,8 +416,10 @@ struct Ran {
     difference: f64,
     /// Each wheel's figures of the feedthrough reading …
     wheels: Vec<WheelFigures>,
-    /// … and of the reading after the step.
+    /// … and of the reading after the step …
     after: Vec<WheelFigures>,
+    /// … and of the FMU's fixed-lag smoothed forces.
+    smoothed: Vec<WheelFigures>,
     nis: Option<Nis>,
 }
 
@@ -432,29 +488,38 @@ fn run_case(
         ..Options::default()
     };
     let mut recording = None;
-    let figures = compare_case(&runs, &options, stem).and_then(|(comparison, written)| {
-        recording = Some(written);
-        let mut per_run = Vec::new();
-        for (report, run) in comparison.runs.iter().zip(&runs) {
-            let after = analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() })?;
-            let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
-                pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
-            };
-            per_run.push((wheels(&report.pairs), wheels(&after.pairs), report.nis.clone()));
-        }
-        Ok(per_run)
-    });
-    let (ran, comparison_failure) =
-        match figures {
-            Ok(figures) => {
-                let ran =
-                    checked_runs.into_iter().zip(figures).map(|((kind, counts, difference), (wheels, after, nis))| {
-                        Ran { kind, counts, difference, wheels, after, nis }
-                    });
-                (ran.collect(), None)
+    let figures =
+        compare_case_standing_in(&runs, &options, stem, FilterKind::SrCkf).and_then(|(comparison, written)| {
+            recording = Some(written);
+            let mut per_run = Vec::new();
+            for (report, run) in comparison.runs.iter().zip(&runs) {
+                let after = analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() })?;
+                let smoothed = analyse(run, &Options { estimate_topic: SMOOTHED.into(), ..options.clone() })?;
+                let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
+                    pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
+                };
+                per_run
+                    .push(([wheels(&report.pairs), wheels(&after.pairs), wheels(&smoothed.pairs)], report.nis.clone()));
             }
-            Err(e) => (Vec::new(), Some(e.to_string())),
-        };
+            Ok(per_run)
+        });
+    let (ran, comparison_failure) = match figures {
+        Ok(figures) => {
+            let ran = checked_runs.into_iter().zip(figures).map(
+                |((kind, counts, difference), ([wheels, after, smoothed], nis))| Ran {
+                    kind,
+                    counts,
+                    difference,
+                    wheels,
+                    after,
+                    smoothed,
+                    nis,
+                },
+            );
+            (ran.collect(), None)
+        }
+        Err(e) => (Vec::new(), Some(e.to_string())),
+    };
     Ok(CaseRuns { ran, failed, comparison_failure, recording })
 }
 
@@ -475,11 +540,18 @@ fn worst_wheel(case: Case, r: &Ran) -> WorstWheel {
         normalised_error_worst_wheelset: worst_normalised_error.map(|(j, _)| j + 1),
         normalised_error_worst: worst_normalised_error.map(|(_, n)| n),
         after_step_correlation_min: r.after.iter().map(|a| a.correlation).fold(f64::INFINITY, f64::min),
+        smoothed: SmoothedWorstWheel {
+            correlation_min: r.smoothed.iter().map(|s| s.correlation).fold(f64::INFINITY, f64::min),
+            rmse_over_dynamic_std_max: r.smoothed.iter().map(|s| s.rmse / s.dynamic_std).fold(0.0, f64::max),
+            two_sigma_coverage_min: Some(r.smoothed.iter().map(|s| s.two_sigma).fold(f64::INFINITY, f64::min))
+                .filter(|c| !c.is_nan()),
+        },
     }
 }
 
 /// The worst-wheel columns every filter's table and the unseen table share, from
-/// `corr min` on (without the weld's peak error).
+/// `corr min` on (without the weld's peak error); the last has the `(e/σ)²`, the NIS and
+/// the smoothed forces' columns.
 fn worst_columns(worst: &WorstWheel, r: &Ran) -> [String; 8] {
     [
         format!("{:>9.4}", worst.correlation_min),
@@ -490,12 +562,15 @@ fn worst_columns(worst: &WorstWheel, r: &Ran) -> [String; 8] {
         format!("{:>12.1e}", r.difference),
         format!("{:>7}", worst.one_sigma_coverage_min.map_or("—".into(), |c| format!("{c:.3}"))),
         format!(
-            "{:>20} {:>17}",
+            "{:>20} {:>17}  {:>12.4} {:>11.3} {:>7.3}",
             worst
                 .normalised_error_worst_wheelset
                 .zip(worst.normalised_error_worst)
                 .map_or("—".into(), |(j, n)| format!("{j}: {}", read(Some((n.mean_square, n.reading))))),
-            read(r.nis.as_ref().and_then(|n| n.ratio.zip(n.reading)))
+            read(r.nis.as_ref().and_then(|n| n.ratio.zip(n.reading))),
+            worst.smoothed.correlation_min,
+            worst.smoothed.rmse_over_dynamic_std_max,
+            worst.smoothed.two_sigma_coverage_min.unwrap_or(f64::NAN)
         ),
     ]
 }
@@ -512,8 +587,9 @@ fn filter_figures(case: Case, r: &Ran, worst: WorstWheel) -> FilterFigures {
             .wheels
             .iter()
             .zip(&r.after)
+            .zip(&r.smoothed)
             .enumerate()
-            .map(|(j, (w, a))| WheelTable::new(case, j + 1, w, a))
+            .map(|(j, ((w, a), s))| WheelTable::new(case, j + 1, w, a, s))
             .collect(),
         nis: r.nis.clone(),
     }
@@ -591,7 +667,7 @@ pub fn report(
     let mut srckf = String::new();
     let _ = writeln!(
         srckf,
-        "{:<12} {:>5} {:>8} {:>6} {:>8} {:>6} {:>8} {:>6} {:>8} {:>8} {:>12} {:>6} {:>10} {:>6} {:>17}",
+        "{:<12} {:>5} {:>8} {:>6} {:>8} {:>6} {:>8} {:>6} {:>8} {:>8} {:>12} {:>6} {:>10} {:>6} {:>17}  {:>8} {:>8} {:>6}",
         "case",
         "wheel",
         "corr",
@@ -606,12 +682,15 @@ pub fn report(
         "2σ",
         "after step",
         "1σ",
-        "(e/σ)²"
+        "(e/σ)²",
+        "smoothed",
+        "RMSE/σd",
+        "2σ"
     );
     let mut filters = String::new();
     let _ = writeln!(
         filters,
-        "{:<12} {:<8} {:>9} {:>11} {:>9} {:>10} {:>9} {:>10} {:>12} {:>7} {:>20} {:>17}",
+        "{:<12} {:<8} {:>9} {:>11} {:>9} {:>10} {:>9} {:>10} {:>12} {:>7} {:>20} {:>17}  {:>12} {:>11} {:>7}",
         "case",
         "filter",
         "corr min",
@@ -623,7 +702,10 @@ pub fn report(
         "vs library N",
         "1σ min",
         "(e/σ)² worst wheel",
-        "NIS/rows"
+        "NIS/rows",
+        "smoothed min",
+        "RMSE/σd max",
+        "2σ min"
     );
     // The truths first, on every core: they take most of the time (the coupled model at
     // 1e-4 s, about 1 s per run), and the FMU runs, one instance at a time, cannot share
@@ -671,12 +753,12 @@ pub fn report(
         }
         for r in &runs.ran {
             if r.kind == FilterKind::SrCkf {
-                for (j, (w, a)) in r.wheels.iter().zip(&r.after).enumerate() {
+                for (j, ((w, a), s)) in r.wheels.iter().zip(&r.after).zip(&r.smoothed).enumerate() {
                     let paper = |v: f64, digits: usize| if j == 0 { format!("{v:.digits$}") } else { "".into() };
                     let _ = writeln!(
                         srckf,
                         "{:<12} {:>5} {:>8.4} {:>6} {:>8.3} {:>6} {:>8.4} {:>6} {:>8.3} {:>8} {:>12} {:>6.3} {:>10.4} \
-                         {:>6.3} {:>17}",
+                         {:>6.3} {:>17}  {:>8.4} {:>8.3} {:>6.3}",
                         case.name(),
                         j + 1,
                         w.correlation,
@@ -691,7 +773,10 @@ pub fn report(
                         w.two_sigma,
                         a.correlation,
                         w.one_sigma,
-                        read(w.normalised_error.map(|n| (n.mean_square, n.reading)))
+                        read(w.normalised_error.map(|n| (n.mean_square, n.reading))),
+                        s.correlation,
+                        s.rmse / s.dynamic_std,
+                        s.two_sigma
                     );
                 }
             }
@@ -713,7 +798,7 @@ pub fn report(
     let mut unseen = String::new();
     let _ = writeln!(
         unseen,
-        "{:<18} {:>5} {:>5} {:<8} {:>9} {:>11} {:>10} {:>9} {:>10} {:>12} {:>7} {:>20} {:>17}",
+        "{:<18} {:>5} {:>5} {:<8} {:>9} {:>11} {:>10} {:>9} {:>10} {:>12} {:>7} {:>20} {:>17}  {:>12} {:>11} {:>7}",
         "unseen track",
         "km/h",
         "Hz",
@@ -726,7 +811,10 @@ pub fn report(
         "vs library N",
         "1σ min",
         "(e/σ)² worst wheel",
-        "NIS/rows"
+        "NIS/rows",
+        "smoothed min",
+        "RMSE/σd max",
+        "2σ min"
     );
     for ((scenario, unseen_settings), truth) in unseen_runs.iter().zip(unseen_truths) {
         let (km_h, rate) = (unseen_settings.speed * 3.6, unseen_settings.rate);
@@ -804,6 +892,11 @@ pub fn report(
         "paper: {PAPER_SOURCE}, its truth and estimator sharing one model (RMSE 0.2 % of the wheel load); ours differ \
          (track, Hertz contact, the user's catalogue values)"
     );
+    println!(
+        "smoothed: the FMU's fixed-lag smoothed forces (smoothing_lag = {SMOOTHING_LAG} s, the estimate of that much \
+         earlier given the measurements up to now; logged on /smoothed), from {SETTLE} s to one lag before the end: \
+         correlation, RMSE over the true force's dynamic σ, share of errors inside their own ±2σ"
+    );
     println!("comparison recordings, every filter of a case in one (open with the Rerun viewer 0.36 or newer):");
     for recording in &recordings {
         println!("  {}", recording.display());
@@ -878,7 +971,8 @@ mod tests {
     #[test]
     fn a_wheel_is_written_in_the_tables_units_and_under_their_names() {
         let after_step = WheelFigures { correlation: 0.98, ..wheel() };
-        let json = serde_json::to_value(WheelTable::new(Case::Weld, 2, &wheel(), &after_step)).unwrap();
+        let smoothed = WheelFigures { correlation: 0.995, rmse: 150.0, two_sigma: 0.96, ..wheel() };
+        let json = serde_json::to_value(WheelTable::new(Case::Weld, 2, &wheel(), &after_step, &smoothed)).unwrap();
         let expected = serde_json::json!({
             "wheelset": 2,
             "correlation": 0.99,
@@ -893,11 +987,20 @@ mod tests {
             "one_sigma_coverage": null,
             "normalised_error": null,
             "after_step_correlation": 0.98,
+            "smoothed": {
+                "lag": SMOOTHING_LAG,
+                "correlation": 0.995,
+                "rmse": 0.15,
+                "rmse_over_dynamic_std": 0.05,
+                "one_sigma_coverage": null,
+                "two_sigma_coverage": 0.96,
+            },
         });
         assert_eq!(json, expected);
         // Each dimensional figure has its unit in the table's `units`.
         let units = units(&UNITS);
-        for (name, unit) in [("rmse", "kN"), ("running_rmse_variance", "kN²"), ("weld_peak_error", "%")] {
+        for (name, unit) in [("rmse", "kN"), ("running_rmse_variance", "kN²"), ("weld_peak_error", "%"), ("lag", "s")]
+        {
             assert_eq!(units[name], unit, "{name}");
         }
     }
@@ -924,7 +1027,7 @@ mod tests {
     #[test]
     fn only_the_weld_has_a_peak_error() {
         for case in [Case::Random, Case::Corrugation] {
-            assert_eq!(WheelTable::new(case, 1, &wheel(), &wheel()).weld_peak_error, None, "{}", case.name());
+            assert_eq!(WheelTable::new(case, 1, &wheel(), &wheel(), &wheel()).weld_peak_error, None, "{}", case.name());
             assert_eq!(peak(case, -0.5), "—");
         }
         assert_eq!(peak(Case::Weld, -0.5), "-50.0 %");

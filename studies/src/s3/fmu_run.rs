@@ -3,7 +3,8 @@
 //! study's tuning as parameters, by name, as a user would set them in their simulator; a
 //! user without deflection transducers never sets those inputs. The log has the inputs
 //! set, the eight true forces and each wheelset's true sum and difference, which the FMU's
-//! namesake outputs are compared with.
+//! namesake outputs are compared with, and, when the run asks for them, the FMU's
+//! fixed-lag smoothed forces (`/smoothed`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -59,6 +60,10 @@ pub const OUTPUTS: [&str; 33] = [
     "nis",
 ];
 
+/// The forces whose fixed-lag smoothed values are logged on `/smoothed`: the eight the FMU
+/// smooths (it gives no smoothed sum or difference).
+pub const SMOOTHED: [&str; 8] = ["F_NL1", "F_NR1", "F_NL2", "F_NR2", "F_NL3", "F_NR3", "F_NL4", "F_NR4"];
+
 /// The true signals logged beside the estimates: the eight forces in the model's order
 /// (`F_NL1, F_NR1, …`), then each wheelset's `F_sum<j>` and `F_diff<j>` (left minus right).
 pub const TRUE_SIGNALS: [&str; 16] = [
@@ -112,7 +117,8 @@ pub fn vehicle_parameters(vehicle: &RollVehicle) -> Vec<(&'static str, f64)> {
     ]
 }
 
-/// What the user sets in the FMU: their car, the sample time and the tuning.
+/// What the user sets in the FMU: their car, the sample time and the tuning ([`run`] adds
+/// the smoothing lag of a run that is smoothed).
 pub fn parameters(vehicle: &RollVehicle, tuning: &Tuning) -> Vec<(&'static str, f64)> {
     let mut p = vehicle_parameters(vehicle);
     p.push(("sample_time", tuning.dt));
@@ -146,11 +152,19 @@ pub struct Simulated<'a> {
     pub parameters: &'a [(&'static str, f64)],
     /// The user's start values over them.
     pub start_values: &'a StartValues,
+    /// Whether the FMU also smooths the forces (`smoothing_lag` =
+    /// [`crate::smoothed::SMOOTHING_LAG`]), logged on `/smoothed`: a fixed-lag smoother of
+    /// 42 states costs several times the filter's step.
+    pub smoothed: bool,
 }
 
 /// Runs `kind` on a simulated case through the FMU and writes the log to `log`.
 pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path) -> anyhow::Result<Counts> {
-    let Simulated { case, settings, truth, measurements, sensors, parameters, start_values } = *sim;
+    let Simulated { case, settings, truth, measurements, sensors, parameters, start_values, smoothed } = *sim;
+    let mut parameters = parameters.to_vec();
+    if smoothed {
+        parameters.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
+    }
     let truth_specs: Vec<SignalSpec> = TRUE_SIGNALS
         .iter()
         .map(|n| SignalSpec::new(n, "N", "true vertical wheel-rail force (sum, left − right difference) as recorded"))
@@ -168,12 +182,12 @@ pub fn run(fmu: &ImportedFmu, kind: FilterKind, sim: &Simulated<'_>, log: &Path)
     let setup = Setup {
         fmu,
         filter: kind,
-        parameters,
+        parameters: &parameters,
         integers: &[],
         start_values,
         inputs: &inputs,
         outputs: &OUTPUTS,
-        smoothed: &[],
+        smoothed: if smoothed { &SMOOTHED } else { &[] },
         truth: &truth_specs,
         metadata,
     };

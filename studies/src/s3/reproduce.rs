@@ -20,7 +20,14 @@
 //!   run in-process on the same measurements (`study::run_filter`);
 //! - **ceiling**: per case, the most any vertical model gives ([`ceiling`]): each
 //!   wheelset's equations fed with the truth's noise-free vertical motion and the car's
-//!   true data; what it misses of `L − R` is the lateral dynamics' share.
+//!   true data; what it misses of `L − R` is the lateral dynamics' share;
+//! - **sm**: the FMU's fixed-lag smoothed forces (its `smoothing_lag`, [`SMOOTHING_LAG`],
+//!   logged on `/smoothed` at the times they describe), taken like the filtered ones but
+//!   ending one lag before the run does; each wheelset's smoothed sum and `L − R` are
+//!   formed here from its smoothed `L` and `R`, without a σ (the FMU gives no smoothed
+//!   covariance of a wheelset's two forces). Our force model's runs only: a smoother of
+//!   the 42 states costs several times the filter, and the paper's runs are there for
+//!   comparison.
 //!
 //! Start values (`--set`, `--values`) go to every FMU run; the in-process filter takes
 //! those it has a parameter for ([`Tuning::set`](start_values::SetByName::set)). The
@@ -33,11 +40,11 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use analyzer::consistency::{Nis, NormalisedError};
-use analyzer::report::{Options, PairReport};
+use analyzer::report::{analyse, Options, PairReport};
 use anyhow::Context;
 use estimator::FilterKind;
-use log_format::read::{read_log, Run};
-use log_format::write::ESTIMATE;
+use log_format::read::{read_log, Run, Signal};
+use log_format::write::{SignalSpec, ESTIMATE, SMOOTHED, TRUTH};
 use serde::Serialize;
 use start_values::{SetByName, StartValues};
 
@@ -45,6 +52,7 @@ use super::ceiling::{ceiling, Ceiling};
 use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::study::{forces_in_model_order, run_filter, user_vehicle, ForceModel, Sensors, Tuning};
 use crate::comparison::{compare_case, largest_difference, rows_of, units, write_table};
+use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::Counts;
 use shard::Shard;
@@ -207,6 +215,8 @@ pub struct SignalFigures {
     pub two_sigma_coverage: Option<f64>,
     /// The mean of `(e/σ)²` with its reading.
     pub normalised_error: Option<NormalisedError>,
+    /// The FMU's fixed-lag smoothed signal (`null` if the run has none).
+    pub smoothed: Option<SmoothedSignal>,
 }
 
 impl SignalFigures {
@@ -217,16 +227,47 @@ impl SignalFigures {
             one_sigma_coverage: pair.one_sigma_coverage,
             two_sigma_coverage: pair.two_sigma_coverage,
             normalised_error: pair.normalised_error,
+            smoothed: None,
+        }
+    }
+}
+
+/// One fixed-lag smoothed signal (the FMU's `smoothing_lag`, on `/smoothed`) against its
+/// truth, after the settling time, its figures taken as the filtered signal's.
+#[derive(Debug, Clone, Serialize)]
+pub struct SmoothedSignal {
+    /// The smoothing lag (s).
+    pub lag: f64,
+    /// Correlation.
+    pub correlation: f64,
+    /// Steady RMSE (kN).
+    pub rmse: f64,
+    /// Share of the errors inside the smoothed ±σ (`null` for the sum and `L − R`, formed
+    /// from the smoothed forces without a σ).
+    pub one_sigma_coverage: Option<f64>,
+    /// Share of the errors inside the smoothed ±2σ (`null` for the sum and `L − R`).
+    pub two_sigma_coverage: Option<f64>,
+}
+
+impl SmoothedSignal {
+    fn of(pair: &PairReport<'_>) -> Self {
+        Self {
+            lag: SMOOTHING_LAG,
+            correlation: pair.metrics.correlation,
+            rmse: pair.metrics.rmse / 1e3,
+            one_sigma_coverage: pair.one_sigma_coverage,
+            two_sigma_coverage: pair.two_sigma_coverage,
         }
     }
 }
 
 /// The units of S3's [`Table`].
-const UNITS: [(&str, &str); 6] = [
+const UNITS: [(&str, &str); 7] = [
     ("speed", "m/s"),
     ("duration", "s"),
     ("rate", "Hz"),
     ("settle", "s"),
+    ("lag", "s"),
     ("rmse", "kN"),
     ("fmu_vs_in_process_max_abs_difference", "N"),
 ];
@@ -249,6 +290,57 @@ fn wheelsets(pairs: &[PairReport<'_>]) -> anyhow::Result<Vec<WheelsetFigures>> {
         .collect()
 }
 
+/// The smoothed figures of `run` ([`smoothed_run`]) added to its `wheelsets`.
+fn add_smoothed(wheelsets: &mut [WheelsetFigures], run: &Run, options: &Options) -> anyhow::Result<()> {
+    let smoothed = smoothed_run(run)?;
+    let report = analyse(&smoothed, &Options { estimate_topic: SMOOTHED.into(), ..options.clone() })?;
+    let find = |name: String| {
+        report
+            .pairs
+            .iter()
+            .find(|p| p.truth == name)
+            .map(SmoothedSignal::of)
+            .with_context(|| format!("no smoothed {name}"))
+    };
+    for w in wheelsets {
+        let j = w.wheelset;
+        w.left.smoothed = Some(find(format!("F_NL{j}"))?);
+        w.right.smoothed = Some(find(format!("F_NR{j}"))?);
+        w.sum.smoothed = Some(find(format!("F_sum{j}"))?);
+        w.difference.smoothed = Some(find(format!("F_diff{j}"))?);
+    }
+    Ok(())
+}
+
+/// The truth of `run` and its `/smoothed` channel, the eight smoothed forces with their σ,
+/// to which each wheelset's sum `F_sum<j>` and difference `F_diff<j>` are added from its
+/// smoothed `F_NL<j>` and `F_NR<j>`, without a σ: the FMU smooths the eight forces only,
+/// and gives no smoothed covariance of a wheelset's two.
+fn smoothed_run(run: &Run) -> anyhow::Result<Run> {
+    let mut smoothed = run.channel(SMOOTHED)?.clone();
+    for j in 1..=4 {
+        let force = |name: String| {
+            smoothed.signal(&name).map(|s| s.values.clone()).with_context(|| format!("{SMOOTHED} has no {name}"))
+        };
+        let (left, right) = (force(format!("F_NL{j}"))?, force(format!("F_NR{j}"))?);
+        let formed = |name: String, description: &str, f: fn(f64, f64) -> f64| Signal {
+            spec: SignalSpec::new(&name, "N", description),
+            values: left.iter().zip(&right).map(|(&l, &r)| f(l, r)).collect(),
+        };
+        smoothed.signals.extend([
+            formed(format!("F_sum{j}"), "smoothed F_NL + F_NR, formed from the smoothed forces", |l, r| l + r),
+            formed(format!("F_diff{j}"), "smoothed F_NL − F_NR, formed from the smoothed forces", |l, r| l - r),
+        ]);
+    }
+    Ok(Run {
+        file: run.file.clone(),
+        metadata: run.metadata.clone(),
+        channels: vec![run.channel(TRUTH)?.clone(), smoothed],
+        skipped: Vec::new(),
+        damage: None,
+    })
+}
+
 /// What every run of the study shares.
 struct Given<'a> {
     fmu: &'a ImportedFmu,
@@ -265,8 +357,12 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
     let vehicle = user_vehicle(settings.vehicle.static_wheel_load());
     let mut figures = Vec::new();
     let mut runs: Vec<Run> = Vec::new();
-    let mut checked: Vec<(usize, Counts, f64)> = Vec::new();
+    // Each run's index in `figures`, its counts, its difference from the library and whether
+    // it is smoothed (ours only: the smoother of the 42 states, 100 samples back, costs
+    // several times the filter).
+    let mut checked: Vec<(usize, Counts, f64, bool)> = Vec::new();
     for (forces, sensors) in configurations() {
+        let smoothed = forces != ForceModel::RandomWalk;
         let mut tuning = Tuning::new(settings, &measurements, forces);
         let result = (|| -> anyhow::Result<(Counts, Run, f64)> {
             tuning.set_known(start_values).map_err(anyhow::Error::msg)?;
@@ -290,6 +386,7 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
                 sensors,
                 parameters: &parameters,
                 start_values,
+                smoothed,
             };
             let log = dir.join(format!("{case}_{}.mcap", run_name(forces, sensors)));
             let counts = fmu_run::run(fmu, FILTER, &sim, &log)?;
@@ -314,7 +411,7 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
         };
         match result {
             Ok((counts, run, difference)) => {
-                checked.push((figures.len(), counts, difference));
+                checked.push((figures.len(), counts, difference, smoothed));
                 runs.push(run);
             }
             Err(e) => entry.failure = Some(format!("{e:#}")),
@@ -324,12 +421,15 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
     let options = Options { from: SETTLE, psd_segment: settings.rate.round() as usize, ..Options::default() };
     let stem = dir.join(case.name());
     let compared = compare_case(&runs, &options, &stem).map_err(anyhow::Error::from).and_then(|(comparison, rrd)| {
-        for ((index, counts, difference), report) in checked.iter().zip(&comparison.runs) {
+        for (((index, counts, difference, smoothed), report), run) in checked.iter().zip(&comparison.runs).zip(&runs) {
             let entry = &mut figures[*index];
             entry.rejected_rows = Some(counts.rejected);
             entry.fmu_vs_in_process_max_abs_difference = Some(*difference);
             entry.nis = report.nis.clone();
             entry.wheelsets = wheelsets(&report.pairs)?;
+            if *smoothed {
+                add_smoothed(&mut entry.wheelsets, run, &options)?;
+            }
         }
         Ok(rrd)
     });
@@ -459,11 +559,15 @@ fn summary_table(cases: &[CaseFigures]) -> String {
         "after {SETTLE} s, the lowest of the four wheelsets; RMSE of wheelset 1's left force and the largest of the \
          eight; 2σ: the lowest share of errors inside the FMU's ±2σ of the 16 signals (L, R, sum, L−R); (e/σ)²: the \
          signal farthest from 1; ceiling: the most any vertical model gives, its equations fed with the true vertical \
-         motion (what it misses is the lateral dynamics'):"
+         motion (what it misses is the lateral dynamics'); sm: the same of the FMU's fixed-lag smoothed forces \
+         (smoothing_lag = {SMOOTHING_LAG} s, the estimate of that much earlier given the measurements up to now; \
+         logged on /smoothed) up to one lag before the end, of our force model's runs; L − R formed from the smoothed \
+         L and R, 2σ of L and R:"
     );
     let _ = writeln!(
         out,
-        "{:<17} {:<20} {:<14} {:>6} {:>6} {:>7} {:>6} {:>8} {:>8} {:>6} {:>24} {:>17} {:>8} {:>9}",
+        "{:<17} {:<20} {:<14} {:>6} {:>6} {:>7} {:>6} {:>8} {:>8} {:>6} {:>24} {:>17} {:>8} {:>9}  {:>6} {:>6} {:>6} \
+         {:>10} {:>6}",
         "case",
         "forces",
         "sensors",
@@ -477,7 +581,12 @@ fn summary_table(cases: &[CaseFigures]) -> String {
         "(e/σ)² worst",
         "NIS/rows",
         "rejected",
-        "vs lib N"
+        "vs lib N",
+        "sm L",
+        "sm R",
+        "sm L−R",
+        "sm RMSE L1",
+        "sm 2σ"
     );
     let _ = writeln!(
         out,
@@ -523,7 +632,7 @@ fn summary_table(cases: &[CaseFigures]) -> String {
             let rmse_max = run.wheelsets.iter().flat_map(|w| [w.left.rmse, w.right.rmse]).fold(0.0, f64::max);
             let _ = writeln!(
                 out,
-                "{label} {:>6.3} {:>6.3} {:>7.4} {:>6.3} {:>8.3} {:>8.3} {:>6.3} {:>24} {:>17} {:>8} {:>9.1e}",
+                "{label} {:>6.3} {:>6.3} {:>7.4} {:>6.3} {:>8.3} {:>8.3} {:>6.3} {:>24} {:>17} {:>8} {:>9.1e}  {}",
                 lowest(run, |w| w.left.correlation),
                 lowest(run, |w| w.right.correlation),
                 lowest(run, |w| w.sum.correlation),
@@ -542,31 +651,91 @@ fn summary_table(cases: &[CaseFigures]) -> String {
                     .map_or("—".into(), |(r, reading)| format!("{r:.3} {}", reading.text())),
                 run.rejected_rows.unwrap_or(0),
                 run.fmu_vs_in_process_max_abs_difference.unwrap_or(f64::NAN),
+                smoothed_columns(run),
             );
         }
     }
     out
 }
 
+/// The summary table's smoothed columns of `run`: the lowest correlation of the four
+/// wheelsets' smoothed L, R and L − R, the steady RMSE of wheelset 1's smoothed left force
+/// and the lowest share of the smoothed L and R errors inside their ±2σ; `—` without them.
+fn smoothed_columns(run: &RunFigures) -> String {
+    let wheelsets: Option<Vec<[&SmoothedSignal; 3]>> = run
+        .wheelsets
+        .iter()
+        .map(|w| Some([w.left.smoothed.as_ref()?, w.right.smoothed.as_ref()?, w.difference.smoothed.as_ref()?]))
+        .collect();
+    let Some(wheelsets) = wheelsets.filter(|w| !w.is_empty()) else {
+        return format!("{:>6} {:>6} {:>6} {:>10} {:>6}", "—", "—", "—", "—", "—");
+    };
+    let lowest = |figures: &mut dyn Iterator<Item = Option<f64>>| figures.flatten().fold(f64::INFINITY, f64::min);
+    let correlation = |side: usize| lowest(&mut wheelsets.iter().map(|w| Some(w[side].correlation)));
+    format!(
+        "{:>6.3} {:>6.3} {:>6.3} {:>10.3} {:>6.3}",
+        correlation(0),
+        correlation(1),
+        correlation(2),
+        wheelsets[0][0].rmse,
+        lowest(&mut wheelsets.iter().flat_map(|w| [w[0].two_sigma_coverage, w[1].two_sigma_coverage]))
+    )
+}
+
 /// The second table: every wheelset of every run, correlation and steady RMSE of L, R,
-/// sum and L − R, and the share inside ±2σ.
+/// sum and L − R, and the share inside ±2σ; then those of the smoothed L, R and L − R.
 fn wheel_table(cases: &[CaseFigures]) -> String {
     let mut out = String::new();
-    let _ = writeln!(out, "per wheelset: correlation, steady RMSE (kN) and share inside ±2σ of L, R, sum and L − R:");
     let _ = writeln!(
         out,
-        "{:<17} {:<12} {:<14} {:>5} | {:>6} {:>6} {:>7} {:>6} | {:>6} {:>6} {:>6} {:>6} | {:>5} {:>5} {:>5} {:>5}",
-        "case", "forces", "sensors", "wheel", "L", "R", "sum", "L−R", "L", "R", "sum", "L−R", "L", "R", "sum", "L−R"
+        "per wheelset: correlation, steady RMSE (kN) and share inside ±2σ of L, R, sum and L − R; then the same of the \
+         smoothed (sm) L, R and L − R (L − R formed from the smoothed L and R, without a σ):"
+    );
+    let _ = writeln!(
+        out,
+        "{:<17} {:<12} {:<14} {:>5} | {:>6} {:>6} {:>7} {:>6} | {:>6} {:>6} {:>6} {:>6} | {:>5} {:>5} {:>5} {:>5} \
+         | {:>6} {:>6} {:>6} | {:>6} {:>6} {:>6} | {:>5} {:>5}",
+        "case",
+        "forces",
+        "sensors",
+        "wheel",
+        "L",
+        "R",
+        "sum",
+        "L−R",
+        "L",
+        "R",
+        "sum",
+        "L−R",
+        "L",
+        "R",
+        "sum",
+        "L−R",
+        "sm L",
+        "sm R",
+        "sm L−R",
+        "sm L",
+        "sm R",
+        "sm L−R",
+        "sm L",
+        "sm R"
     );
     for case in cases {
         for run in case.runs.iter().filter(|r| r.failure.is_none()) {
             for w in &run.wheelsets {
                 let s = [&w.left, &w.right, &w.sum, &w.difference];
                 let two = s.map(|s| s.two_sigma_coverage.unwrap_or(f64::NAN));
+                let sm = [&w.left, &w.right, &w.difference].map(|s| s.smoothed.as_ref());
+                let figure = |s: Option<&SmoothedSignal>, f: fn(&SmoothedSignal) -> Option<f64>, digits: usize| {
+                    s.and_then(f).map_or("—".to_string(), |v| format!("{v:.digits$}"))
+                };
+                let correlation = sm.map(|s| figure(s, |s| Some(s.correlation), 3));
+                let rmse = sm.map(|s| figure(s, |s| Some(s.rmse), 3));
+                let two_sigma = sm.map(|s| figure(s, |s| s.two_sigma_coverage, 2));
                 let _ = writeln!(
                     out,
                     "{:<17} {:<12} {:<14} {:>5} | {:>6.3} {:>6.3} {:>7.4} {:>6.3} | {:>6.3} {:>6.3} {:>6.3} {:>6.3} | \
-                     {:>5.2} {:>5.2} {:>5.2} {:>5.2}",
+                     {:>5.2} {:>5.2} {:>5.2} {:>5.2} | {:>6} {:>6} {:>6} | {:>6} {:>6} {:>6} | {:>5} {:>5}",
                     case.case,
                     run.force_model,
                     run.sensors,
@@ -583,6 +752,14 @@ fn wheel_table(cases: &[CaseFigures]) -> String {
                     two[1],
                     two[2],
                     two[3],
+                    correlation[0],
+                    correlation[1],
+                    correlation[2],
+                    rmse[0],
+                    rmse[1],
+                    rmse[2],
+                    two_sigma[0],
+                    two_sigma[1],
                 );
             }
         }

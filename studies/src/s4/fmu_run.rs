@@ -4,7 +4,8 @@
 //! no marker. The user sets the study's tuning (the channels' noise, the motion's jerk,
 //! the prior, its position from the first telegrams); the rest is the FMU's defaults, the
 //! study's set-up, and the user's start values go over both. The log has the true
-//! position and speed.
+//! position and speed, and the FMU's fixed-lag smoothed position and speed (`/smoothed`,
+//! `smoothing_lag` [`crate::smoothed::SMOOTHING_LAG`]: 5 telegrams).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -49,6 +50,10 @@ pub const COMPARED: [&str; 10] = [
 const OTHER_OUTPUTS: [&str; 7] =
     ["position_std", "speed_std", "acceleration", "acceleration_std", "fused_speed", "fused_speed_std", "nis"];
 
+/// The FMU's outputs whose fixed-lag smoothed values are logged on `/smoothed`: those the
+/// truth has.
+pub const SMOOTHED: [&str; 2] = ["position", "speed"];
+
 /// What the user sets: every number of `tuning` (the channels' noise, the jerk, the
 /// prior: its position by default the first telegrams' mean less their levers, as
 /// [`super::ours::run`] starts), and the recording's telegram interval as the sample time.
@@ -74,7 +79,9 @@ pub fn parameters(recording: &Recording, tuning: &Tuning) -> Vec<(&'static str, 
     p
 }
 
-/// Runs `kind` through the FMU over `recording` and writes the log to `log`.
+/// Runs `kind` through the FMU over `recording` and writes the log to `log`, with the FMU's
+/// smoothed position and speed (`smoothing_lag` set beside [`parameters`]: not a number of
+/// the tuning, the in-process filter has none).
 pub fn run(
     fmu: &ImportedFmu,
     kind: FilterKind,
@@ -84,7 +91,8 @@ pub fn run(
     start_values: &StartValues,
     log: &Path,
 ) -> anyhow::Result<Counts> {
-    let parameters = parameters(recording, tuning);
+    let mut parameters = parameters(recording, tuning);
+    parameters.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
     let truth = [
         SignalSpec::new("position", "m", "true position of the reference point"),
         SignalSpec::new("speed", "m/s", "true speed of the reference point"),
@@ -106,7 +114,7 @@ pub fn run(
         start_values,
         inputs: &INPUTS,
         outputs: &outputs,
-        smoothed: &[],
+        smoothed: &SMOOTHED,
         truth: &truth,
         metadata,
     };

@@ -11,6 +11,12 @@
 //! their 1σ and 2σ coverage and mean (e/σ)² with its reading, and the NIS against the
 //! measurement rows used.
 //!
+//! Every FMU run also smooths its position and speed (`smoothing_lag`
+//! [`SMOOTHING_LAG`], 5 telegrams: a fixed-lag smoother inside the FMU, logged on
+//! `/smoothed`). Each filter's smoothed speed and position are scored from its log by the
+//! analyzer as ours is, against the truth at the telegram each describes
+//! ([`SmoothedScores`]); the SRCKF's is the comparison's `ours smoothed` row.
+//!
 //! Start values (`--set`, `--values`) go to every FMU run over the study's parameters and,
 //! where the in-process filter has them ([`Tuning::set`]), to the in-process run it is
 //! checked against. Those it does not have (the supervisor's and the slips' settings,
@@ -23,18 +29,19 @@ use std::path::Path;
 use start_values::{SetByName, StartValues};
 
 use analyzer::consistency::{Nis, NormalisedError, Reading};
-use analyzer::report::{Options, PairReport, Report};
+use analyzer::report::{analyse, Options, PairReport, Report};
 use anyhow::Context;
 use estimator::FilterKind;
-use log_format::read::read_log;
-use log_format::write::ESTIMATE;
+use log_format::read::{read_log, Run};
+use log_format::write::{ESTIMATE, SMOOTHED};
 use serde::Serialize;
 
 use super::compare::{compare_with, print_comparison, Comparison, PAPER_MEAN_REDUCTION, PAPER_RANGE};
 use super::fmu_run::{self, COMPARED, IDENTIFIER};
-use super::metrics::reduction;
+use super::metrics::{reduction, score_position, score_speed, SpeedScore};
 use super::ours::{self, Settings, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case_standing_in, largest_difference, log_path, rows_of, units, write_table};
+use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use truth::s4::channels::simulate;
 use truth::s4::faults::{FaultProfile, Faults};
@@ -132,6 +139,100 @@ pub struct FilterCheck {
     /// The NIS of the run's updates against the measurement rows they used (`null` if the
     /// run or the comparison failed, or the log has no `nis`).
     pub nis: Option<Nis>,
+    /// The FMU's fixed-lag smoothed speed and position scored against the truth (`null` if
+    /// the run failed or its `/smoothed` could not be scored).
+    pub smoothed: Option<SmoothedScores>,
+}
+
+/// A run's fixed-lag smoothed speed and position (the FMU's `smoothing_lag`, on
+/// `/smoothed`), scored as the comparison scores ours: each smoothed estimate against the
+/// truth at the telegram it describes, from telegram 1 (ours' first) to the last the
+/// run's smoothed estimates reach, `n − 1 − lag/Δt` (the last `lag` has none yet).
+#[derive(Serialize)]
+pub struct SmoothedScores {
+    /// The smoothing lag (s): the estimate of that much before the newest telegram.
+    pub lag: f64,
+    /// Telegrams scored.
+    pub telegrams: usize,
+    /// The smoothed speed's score (as ours' `speed`).
+    pub speed: SpeedScore,
+    /// The largest `|e|` of the smoothed position (m).
+    #[serde(rename = "position_max_abs_error")]
+    pub position_max: f64,
+    /// Fraction of the smoothed speeds within the ETCS band at the true speed (the
+    /// analyzer's `in_tolerance` of `speed_tolerance`).
+    #[serde(rename = "in_etcs_band_fraction")]
+    pub in_band: f64,
+    /// The reduction of the mean speed error from the raw average's (over all of ours'
+    /// telegrams), `(before − after)/before`; `null` if the comparison failed.
+    pub mean_abs_error_reduction_from_raw: Option<f64>,
+    /// What the smoothed σ of the speed says against its errors.
+    pub speed_sigma: SignalSigma,
+    /// The same of the position.
+    pub position_sigma: SignalSigma,
+}
+
+impl SmoothedScores {
+    /// The scores of `run`'s `/smoothed` from `from` (s) on, by the analyzer.
+    fn of(run: &Run, from: f64) -> anyhow::Result<Self> {
+        let report = analyse(run, &Options { estimate_topic: SMOOTHED.into(), from, ..Options::default() })?;
+        let pair = |signal: &str| {
+            let pair = report.pairs.iter().find(|p| p.truth == signal);
+            let pair = pair.with_context(|| format!("{} has no smoothed {signal}", run.file.display()))?;
+            // The analyzer's series are whole; its figures start at `from`.
+            let first = pair.time.iter().position(|&t| t >= from).unwrap_or(pair.time.len());
+            Ok::<_, anyhow::Error>((pair, first))
+        };
+        let ((speed, first), (position, first_position)) = (pair("speed")?, pair("position")?);
+        let sigma = |pair: &PairReport<'_>| SignalSigma {
+            one_sigma_coverage: pair.one_sigma_coverage,
+            two_sigma_coverage: pair.two_sigma_coverage,
+            normalised_error: pair.normalised_error,
+        };
+        Ok(Self {
+            lag: SMOOTHING_LAG,
+            telegrams: speed.samples,
+            speed: score_speed(&speed.estimate_values[first..], &speed.truth_values[first..]),
+            position_max: score_position(
+                &position.estimate_values[first_position..],
+                &position.truth_values[first_position..],
+            )
+            .max_abs,
+            in_band: speed.in_tolerance.context("the log's truth has no speed_tolerance")?,
+            mean_abs_error_reduction_from_raw: None,
+            speed_sigma: sigma(speed),
+            position_sigma: sigma(position),
+        })
+    }
+
+    /// Its row of the comparison's speed table, below ours, `raw` the raw average's mean
+    /// speed error.
+    fn row(&self, raw: Option<f64>) -> String {
+        let against_raw =
+            raw.map_or("—".into(), |raw| format!("{:.1}%", -100.0 * reduction(raw, self.speed.mean_abs_error)));
+        format!(
+            "{:<22} {:>9.4} {:>9} {:>9.3} {:>12.3} {:>9.3} {:>10.4} {:>7.2}%",
+            format!("ours smoothed ({SMOOTHING_LAG} s)"),
+            self.speed.mean_abs_error,
+            against_raw,
+            self.speed.max_abs_error,
+            self.speed.speed_range,
+            self.speed.error_range,
+            self.position_max,
+            100.0 * self.in_band
+        )
+    }
+}
+
+/// `text` with `line` inserted after its row labelled `label` (a row of
+/// [`print_comparison`]'s speed table), or at its end if it has none.
+fn insert_after_row(text: &mut String, label: &str, line: &str) {
+    let row = format!("\n{label:<22} ");
+    let at = text.find(&row).and_then(|start| text[start + 1..].find('\n').map(|end| start + 1 + end + 1));
+    match at {
+        Some(at) => text.insert_str(at, &format!("{line}\n")),
+        None => text.push_str(&format!("{line}\n")),
+    }
 }
 
 /// The analyzer's figures of one estimated signal's σ against its errors.
@@ -174,8 +275,9 @@ fn read(value: f64, reading: Reading) -> String {
 
 /// The units of S4's [`Table`]. `mean` is the speed error's: the `nis` objects' `mean` is
 /// dimensionless, like every σ figure.
-const UNITS: [(&str, &str); 14] = [
+const UNITS: [(&str, &str); 15] = [
     ("duration", "s"),
+    ("lag", "s"),
     ("raw_average_speed_range", "m/s"),
     ("paper_fused_ukf_speed_range", "m/s"),
     ("mean_abs_error", "m/s"),
@@ -269,6 +371,8 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
     }
     let mut failures = 0;
     let mut profiles = Vec::new();
+    // The smoothing lag in telegrams (the same interval in every case).
+    let mut lag_telegrams = 0;
     for case in cases(quick) {
         let Case { name: case_name, profile: profile_name, motion: profile, faults, .. } = &case;
         let mut tuning = case.tuning;
@@ -327,6 +431,7 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
                         speed: None,
                         position: None,
                         nis: None,
+                        smoothed: None,
                     });
                 }
                 Err(e) => {
@@ -339,12 +444,13 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
                         speed: None,
                         position: None,
                         nis: None,
+                        smoothed: None,
                     });
                 }
             }
         }
         line.push_str(&fmu_only_note(&fmu_only));
-        let compared = compare_case(&logs, &Options::default(), &stem);
+        let compared = compare_case_standing_in(&logs, &Options::default(), &stem, FilterKind::SrCkf);
         if let Ok((comparison, _)) = &compared {
             for (report, &i) in comparison.runs.iter().zip(&logged) {
                 filters[i].speed = SignalSigma::of(report, "speed");
@@ -352,20 +458,41 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
                 filters[i].nis = report.nis.clone();
             }
         }
+        let figures = table.as_ref().map(comparison_figures).transpose()?;
+        let raw = figures.as_ref().and_then(|f| f["raw_average"]["speed"]["mean_abs_error"].as_f64());
+        // From telegram 1 on, as ours (halfway to it: a log's times are to the nanosecond).
+        let from = 0.5 * (recording.time(0) + recording.time(1));
+        for (run, &i) in logs.iter().zip(&logged) {
+            match SmoothedScores::of(run, from) {
+                Ok(mut smoothed) => {
+                    smoothed.mean_abs_error_reduction_from_raw =
+                        raw.map(|raw| reduction(raw, smoothed.speed.mean_abs_error));
+                    filters[i].smoothed = Some(smoothed);
+                }
+                Err(e) => {
+                    failures += 1;
+                    println!("{}: FAILED to score the smoothed estimates: {e:#}", filters[i].filter);
+                }
+            }
+        }
+        lag_telegrams = (SMOOTHING_LAG / recording.telegram_interval).round() as usize;
         let sigma_lines: Vec<String> = filters
             .iter()
             .filter(|f| f.failure.is_none())
             .map(|f| {
                 let nis = f.nis.as_ref().and_then(|n| n.ratio.zip(n.reading));
                 format!(
-                    "  {:<8} speed {:<30} position {:<30} NIS/rows {}",
+                    "  {:<8} speed {:<30} position {:<30} NIS/rows {:<16} smoothed speed {}",
                     f.filter,
                     SignalSigma::text(f.speed.as_ref()),
                     SignalSigma::text(f.position.as_ref()),
-                    nis.map_or("—".into(), |(ratio, reading)| read(ratio, reading))
+                    nis.map_or("—".into(), |(ratio, reading)| read(ratio, reading)),
+                    SignalSigma::text(f.smoothed.as_ref().map(|s| &s.speed_sigma))
                 )
             })
             .collect();
+        let ours = filters.iter().find(|f| f.filter == FilterKind::SrCkf.name());
+        let smoothed_row = ours.and_then(|f| f.smoothed.as_ref()).map(|s| s.row(raw));
         profiles.push(ProfileFigures {
             case: case_name,
             profile: profile_name,
@@ -375,7 +502,7 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             telegrams: recording.n_telegrams(),
             filters,
             compared_filter: FilterKind::SrCkf.name(),
-            comparison: table.as_ref().map(comparison_figures).transpose()?,
+            comparison: figures,
         });
         let mut text = String::new();
         if let Some(c) = &table {
@@ -387,6 +514,9 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
                  without the start values it does not take (vs library)\n"
             });
             print_comparison(&mut text, seed, *faults, c);
+            if let Some(row) = &smoothed_row {
+                insert_after_row(&mut text, "ours", row);
+            }
         }
         print!("{text}");
         println!("{line}");
@@ -407,6 +537,14 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             }
         }
     }
+    println!(
+        "smoothed: the FMU's fixed-lag estimates (smoothing_lag = {SMOOTHING_LAG} s, {lag_telegrams} telegrams: the \
+         estimate of that much before the newest telegram, given the telegrams up to it; logged on /smoothed), scored \
+         as ours against the truth at the telegram each describes, over telegrams 1 … n − {}, the last {SMOOTHING_LAG} \
+         s having none yet: `ours smoothed` (the SRCKF's) in each speed table, and each filter's smoothed speed σ \
+         (1σ/2σ coverage, (e/σ)²)",
+        lag_telegrams + 1
+    );
     write_table(
         &dir,
         &Table {

@@ -4,7 +4,8 @@
 //! user sets the sample time and the study's tuning (the sensors' and the process noise,
 //! the prior, the UKF's spread, the model's RK4 steps); the rest is the FMU's defaults,
 //! the study's set-up (`tests/s5_fmu_defaults.rs`), and the user's start values go over
-//! both. The log has the true coefficients.
+//! both. The log has the true coefficients, and the FMU's fixed-lag smoothed coefficients
+//! (`/smoothed`, `smoothing_lag` [`crate::smoothed::SMOOTHING_LAG`]: 20 samples).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -83,7 +84,8 @@ pub struct Flown<'a> {
 }
 
 /// Runs `kind` with `tuning` through the FMU on the flight `flown` and writes the log to
-/// `log`.
+/// `log`, with the FMU's smoothed coefficients (`smoothing_lag` set beside [`parameters`]:
+/// not a number of the tuning, the in-process filter has none).
 pub fn run(
     fmu: &ImportedFmu,
     kind: FilterKind,
@@ -94,7 +96,8 @@ pub fn run(
     log: &Path,
 ) -> anyhow::Result<Counts> {
     let Flown { truth, measurements, manoeuvre, case } = *flown;
-    let parameters = parameters(settings, tuning);
+    let mut parameters = parameters(settings, tuning);
+    parameters.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
     let integers = integers(tuning);
     let coefficients: Vec<SignalSpec> =
         NAMES.iter().map(|n| SignalSpec::new(n, &fmu.unit(n), "true force coefficient in force")).collect();
@@ -113,7 +116,7 @@ pub fn run(
         start_values,
         inputs: &INPUTS,
         outputs: &OUTPUTS,
-        smoothed: &[],
+        smoothed: &NAMES,
         truth: &coefficients,
         metadata,
     };

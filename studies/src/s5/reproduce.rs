@@ -11,6 +11,13 @@
 //! coefficient's 1σ and 2σ coverage and mean (e/σ)² with its reading, and the NIS against
 //! the measurement rows used.
 //!
+//! Every FMU run also smooths the coefficients (`smoothing_lag` [`SMOOTHING_LAG`], 20
+//! samples: a fixed-lag smoother inside the FMU; on `/smoothed` in our runs' logs, and
+//! rebuilt from the `_smoothed` outputs and `smoothed_time` on the JSBSim driver's
+//! `/estimate`). The tables give each filter's smoothed estimate's relative error beside
+//! its filtered one: of Table 1's instant, and for Table 2 of the last instant the smoothed
+//! estimates reach, the lag before the end ([`SmoothedRun`]).
+//!
 //! Beside the published manoeuvre, each truth flies `roll-turn`
 //! ([`truth::s5::manoeuvre::Manoeuvre::roll_turn`]), one the tuning was not chosen on and
 //! the paper does not fly: the same figures, its paper columns blank (`null` in the
@@ -31,16 +38,17 @@ use start_values::{SetByName, StartValues};
 
 use analyzer::compare::Comparison;
 use analyzer::consistency::{Nees, Nis, NormalisedError, Reading};
-use analyzer::report::{Options, Report};
+use analyzer::report::{analyse, Options, Report};
 use anyhow::Context;
 use estimator::FilterKind;
-use log_format::read::read_log;
-use log_format::write::{ESTIMATE, TRUTH};
+use log_format::read::{read_log, Channel, Run, Signal};
+use log_format::write::{SignalSpec, ESTIMATE, SMOOTHED, TRUTH};
 use serde::Serialize;
 
 use super::fmu_run::{self, Flown, IDENTIFIER};
 use super::study::{run_filter, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case_standing_in, largest_difference, log_path, rows_of, units, write_table};
+use crate::smoothed::{SmoothedFigures, SMOOTHING_LAG};
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
 use truth::s5::flight::{measure, simulate_named, Settings};
 use truth::s5::manoeuvre::Manoeuvre;
@@ -61,6 +69,101 @@ struct FilterRun {
     /// What the analyzer's report of its log says of its σ (`None` until the runs are
     /// compared, or if they could not be).
     sigma: Option<RunSigma>,
+    /// Its smoothed coefficients (`None` if they could not be read).
+    smoothed: Option<SmoothedRun>,
+}
+
+/// A run's fixed-lag smoothed coefficients, from its log's `/smoothed` by the analyzer:
+/// each stamped with the time it describes, the last the lag before the run's end.
+struct SmoothedRun {
+    /// The times described (s).
+    time: Vec<f64>,
+    /// The smoothed coefficients at those times.
+    coefficients: Vec<[f64; 10]>,
+    /// The coefficients in force then.
+    truth: Vec<[f64; 10]>,
+    /// Each coefficient's smoothed figures from [`SETTLE`] on, by name.
+    figures: BTreeMap<&'static str, SmoothedFigures>,
+}
+
+impl SmoothedRun {
+    /// The smoothed coefficients of `run`, the analyzer's pairs of its `/smoothed` with its truth.
+    fn of(run: &Run) -> anyhow::Result<Self> {
+        let report = analyse(run, &Options { estimate_topic: SMOOTHED.into(), from: SETTLE, ..Options::default() })?;
+        let pairs = NAMES
+            .iter()
+            .map(|&name| {
+                let pair = report.pairs.iter().find(|p| p.truth == name);
+                pair.with_context(|| format!("{} has no smoothed {name}", run.file.display()))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let time = pairs[0].time.to_vec();
+        anyhow::ensure!(pairs.iter().all(|p| *p.time == *time), "the smoothed coefficients' times differ");
+        let rows = |columns: Vec<&[f64]>| -> Vec<[f64; 10]> {
+            (0..time.len()).map(|k| std::array::from_fn(|i| columns[i][k])).collect()
+        };
+        let figures = NAMES
+            .iter()
+            .zip(&pairs)
+            .map(|(&name, pair)| {
+                let figures = SmoothedFigures {
+                    lag: SMOOTHING_LAG,
+                    correlation: pair.metrics.correlation,
+                    rmse_converged: pair.metrics.rmse_converged,
+                    one_sigma_coverage: pair.one_sigma_coverage,
+                    two_sigma_coverage: pair.two_sigma_coverage,
+                };
+                (name, figures)
+            })
+            .collect();
+        Ok(Self {
+            coefficients: rows(pairs.iter().map(|p| &*p.estimate_values).collect()),
+            truth: rows(pairs.iter().map(|p| &*p.truth_values).collect()),
+            time,
+            figures,
+        })
+    }
+
+    /// The index of the smoothed estimate of time `t` (to the nanosecond), if there is one.
+    fn at(&self, t: f64) -> Option<usize> {
+        let ns = |t: f64| (t * 1e9).round() as i64;
+        self.time.binary_search_by_key(&ns(t), |&s| ns(s)).ok()
+    }
+}
+
+/// The JSBSim driver's log with the `/smoothed` channel our runs' logs have: its
+/// `/estimate` has every output of the FMU, so the `_smoothed` ones and their
+/// `smoothed_time`, each logged once per time it describes, as the co-simulation master
+/// logs them (`cosim::master`).
+fn with_smoothed_channel(mut run: Run) -> anyhow::Result<Run> {
+    let estimate = run.channel(ESTIMATE)?;
+    let column = |name: &str| {
+        let signal = estimate.signal(name).with_context(|| format!("{ESTIMATE} has no {name}"));
+        signal.map(|s| s.values.as_slice())
+    };
+    let described = column("smoothed_time")?;
+    let mut kept = Vec::new();
+    let mut last = f64::NEG_INFINITY;
+    for (k, &t) in described.iter().enumerate() {
+        if t > last {
+            kept.push(k);
+            last = t;
+        }
+    }
+    let mut signals = Vec::new();
+    for suffix in ["", "_std"] {
+        for name in NAMES {
+            let values = column(&format!("{name}_smoothed{suffix}"))?;
+            let unit = estimate.signal(name).map(|s| s.spec.unit.clone()).unwrap_or_default();
+            signals.push(Signal {
+                spec: SignalSpec::new(&format!("{name}{suffix}"), &unit, "FMU fixed-lag smoothed output"),
+                values: kept.iter().map(|&k| values[k]).collect(),
+            });
+        }
+    }
+    let time = kept.iter().map(|&k| described[k]).collect();
+    run.channels.push(Channel { topic: SMOOTHED.into(), time, signals });
+    Ok(run)
 }
 
 /// The analyzer's figures of a run's σ: of the coefficients and of its innovations.
@@ -195,6 +298,10 @@ pub struct CoefficientTable {
     pub table: &'static str,
     /// The instant of the estimates (s).
     pub time: f64,
+    /// The instant of the smoothed estimates (s): `time` for Table 1, and for Table 2 the
+    /// last the smoothed estimates reach, the lag before the end (`null` if no run has
+    /// smoothed estimates there).
+    pub smoothed_time: Option<f64>,
     /// The ten coefficients, in the paper's order.
     pub coefficients: Vec<CoefficientRow>,
 }
@@ -212,6 +319,9 @@ pub struct CoefficientRow {
     pub paper_svd_ckf_relative_error: Option<f64>,
     /// Each filter's relative error from the true value (%), by filter kind.
     pub relative_error: BTreeMap<&'static str, f64>,
+    /// Each filter's smoothed estimate's relative error from the true value at
+    /// `smoothed_time` (%), by filter kind.
+    pub smoothed_relative_error: BTreeMap<&'static str, f64>,
 }
 
 /// One filter's figures after the change (at 10 s in both manoeuvres).
@@ -242,6 +352,24 @@ pub struct FilterFigures {
     pub normalised_error_worst_coefficient: Option<&'static str>,
     /// Each coefficient's σ against its errors, by name.
     pub coefficients: BTreeMap<&'static str, SignalSigma>,
+    /// Its smoothed coefficients' figures (`null` if the run's could not be read).
+    pub smoothed: Option<SmoothedCoefficients>,
+}
+
+/// A filter's fixed-lag smoothed coefficients (the FMU's `smoothing_lag`) after the change
+/// and over the run.
+#[derive(Debug, Serialize)]
+pub struct SmoothedCoefficients {
+    /// The smoothing lag (s).
+    pub lag: f64,
+    /// Time after the change from which every smoothed coefficient stays within 3 %, up to
+    /// the last time the smoothed estimates reach (s); `null` if never.
+    pub back_within_3_percent: Option<f64>,
+    /// The same within 1 % (s).
+    pub back_within_1_percent: Option<f64>,
+    /// Each coefficient's smoothed figures against its truth from 0.5 s on (correlation,
+    /// RMSE after convergence, 1σ and 2σ coverage), by name.
+    pub coefficients: BTreeMap<&'static str, SmoothedFigures>,
 }
 
 /// The analyzer's figures of one coefficient's σ against its errors.
@@ -257,11 +385,14 @@ pub struct SignalSigma {
 }
 
 /// The units of S5's [`Table`].
-const UNITS: [(&str, &str); 6] = [
+const UNITS: [(&str, &str); 9] = [
     ("sample_time", "s"),
     ("time", "s"),
+    ("smoothed_time", "s"),
+    ("lag", "s"),
     ("paper_svd_ckf_relative_error", "%"),
     ("relative_error", "%"),
+    ("smoothed_relative_error", "%"),
     ("back_within_3_percent", "s"),
     ("back_within_1_percent", "s"),
 ];
@@ -381,6 +512,17 @@ pub fn report(
         failures += case_failures;
         truths.push(figures);
     }
+    if truths.iter().flat_map(|t| &t.filters).any(|f| f.smoothed.is_some()) {
+        println!(
+            "smoothed (after │ in the tables, and `the same, smoothed`): the FMU's fixed-lag estimates (smoothing_lag = \
+             {SMOOTHING_LAG} s, {} samples: the estimate of that much before the newest sample, given the measurements \
+             up to it, so known {SMOOTHING_LAG} s after the instant it describes); none of the last {SMOOTHING_LAG} s, \
+             so Table 2's are of the last instant they reach (the coefficients there being Table 2's too), and the \
+             time back within 3 % / 1 % is of the instants described up to it; each σ line ends with the filter's \
+             lowest smoothed 1σ/2σ coverage of the coefficients (from {SETTLE} s on)",
+            (SMOOTHING_LAG / settings.sample_time).round()
+        );
+    }
     write_table(
         &dir,
         &Table {
@@ -447,9 +589,10 @@ fn six_dof(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures
             let library = run_filter(kind, tuning, &truth, &measurements, settings.sample_time, &[])
                 .map_err(anyhow::Error::msg)?;
             let difference = largest_difference(&coefficients, &library.coefficients)?;
+            let smoothed = smoothed_of(&run, kind, &mut failures);
             logs.push(run);
             let checked = Some(Checked { difference, rejected: counts.rejected });
-            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None })
+            Ok(FilterRun { kind, coefficients, truth: truth.coefficients.clone(), checked, sigma: None, smoothed })
         });
         match through_fmu {
             Ok(r) => runs.push(r),
@@ -463,7 +606,12 @@ fn six_dof(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures
     if runs.is_empty() {
         return Ok((failures, figures));
     }
-    let recording = match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem) {
+    let recording = match compare_case_standing_in(
+        &logs,
+        &Options { from: SETTLE, ..Options::default() },
+        &stem,
+        FilterKind::SvdCkf,
+    ) {
         Ok((comparison, recording)) => {
             attach_sigma(&mut runs, &comparison);
             Some(recording)
@@ -480,6 +628,17 @@ fn six_dof(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures
         println!("comparison recording, every filter in one: {}", recording.display());
     }
     Ok((failures, figures))
+}
+
+/// The smoothed coefficients of `run`, the log of `kind`'s run; `None`, said and counted
+/// in `failures`, if they cannot be read.
+fn smoothed_of(run: &Run, kind: FilterKind, failures: &mut usize) -> Option<SmoothedRun> {
+    SmoothedRun::of(run)
+        .map_err(|e| {
+            *failures += 1;
+            println!("{kind}: FAILED to read the smoothed coefficients: {e:#}");
+        })
+        .ok()
 }
 
 /// S5's second truth's driver, from the repository's root.
@@ -519,6 +678,7 @@ fn jsbsim(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)
             .args(["--manoeuvre", case.manoeuvre])
             .args(["--set", &format!("filter={}", filter_enumeration(kind))])
             .args(["--set", "ukf_alpha=1", "--set", "ukf_beta=2", "--set", "ukf_kappa=0"])
+            .args(["--set", &format!("smoothing_lag={SMOOTHING_LAG}")])
             .args(&user)
             .output()
             .with_context(|| format!("cannot run {} (scripts/setup --tests installs it)", python.display()))
@@ -528,14 +688,16 @@ fn jsbsim(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)
                     "the JSBSim driver failed: {}",
                     String::from_utf8_lossy(&output.stderr).lines().last().unwrap_or_default()
                 );
-                let run = read_log(&log)?;
+                let run = with_smoothed_channel(read_log(&log)?)?;
                 let (truth, estimate) = (run.channel(TRUTH)?, run.channel(ESTIMATE)?);
                 let samples = estimate.time.len().min(truth.time.len());
                 time = estimate.time[..samples].to_vec();
                 let (mut coefficients, mut true_values) = (rows_of(estimate, NAMES)?, rows_of(truth, NAMES)?);
                 coefficients.truncate(samples);
                 true_values.truncate(samples);
-                let filter_run = FilterRun { kind, coefficients, truth: true_values, checked: None, sigma: None };
+                let smoothed = smoothed_of(&run, kind, &mut failures);
+                let filter_run =
+                    FilterRun { kind, coefficients, truth: true_values, checked: None, sigma: None, smoothed };
                 logs.push(run);
                 Ok(filter_run)
             });
@@ -553,10 +715,11 @@ fn jsbsim(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)
     }
     // Compared before the tables are printed, which show the σ figures of the comparison.
     let compared =
-        compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem).map(|(comparison, recording)| {
-            attach_sigma(&mut runs, &comparison);
-            recording
-        });
+        compare_case_standing_in(&logs, &Options { from: SETTLE, ..Options::default() }, &stem, FilterKind::SvdCkf)
+            .map(|(comparison, recording)| {
+                attach_sigma(&mut runs, &comparison);
+                recording
+            });
     let shown = Shown { case, change_at, sample_time: settings.sample_time, fmu_only: given.fmu_only };
     (figures.tables, figures.filters) = print_tables(&runs, &time, &shown);
     match compared {
@@ -589,13 +752,26 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
     let before = (shown.change_at / shown.sample_time).round() as usize - 1;
     let relative_error = |estimate: f64, true_value: f64| 100.0 * (estimate / true_value - 1.0);
     let published = shown.case.tuned_on();
+    let smoothed: Vec<(FilterKind, &SmoothedRun)> =
+        runs.iter().filter_map(|r| r.smoothed.as_ref().map(|s| (r.kind, s))).collect();
+    // The last time every run's smoothed estimates reach: Table 2's smoothed instant.
+    let smoothed_end = smoothed.iter().filter_map(|(_, s)| s.time.last().copied()).reduce(f64::min);
     let mut tables = Vec::new();
-    for (table, half, k, paper) in [
-        ("Table 1", "before the change", before, PAPER_SVD_CKF_BEFORE),
-        ("Table 2", "after the change", end, PAPER_SVD_CKF_AFTER),
+    for (table, half, k, smoothed_at, paper) in [
+        ("Table 1", "before the change", before, Some(time[before]), PAPER_SVD_CKF_BEFORE),
+        ("Table 2", "after the change", end, smoothed_end, PAPER_SVD_CKF_AFTER),
     ] {
         let paper = published.then_some(paper);
         let true_values = runs[0].truth[k];
+        // Each smoothed run's estimates and truth at the smoothed instant.
+        let smoothed_rows: Vec<(FilterKind, [f64; 10], [f64; 10])> = smoothed
+            .iter()
+            .filter_map(|&(kind, s)| {
+                let j = s.at(smoothed_at?)?;
+                Some((kind, s.coefficients[j], s.truth[j]))
+            })
+            .collect();
+        let smoothed_at = smoothed_at.filter(|_| !smoothed_rows.is_empty());
         let coefficients = (0..10)
             .map(|i| CoefficientRow {
                 coefficient: NAMES[i],
@@ -606,20 +782,36 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
                     .iter()
                     .map(|r| (r.kind.name(), relative_error(r.coefficients[k][i], true_values[i])))
                     .collect(),
+                smoothed_relative_error: smoothed_rows
+                    .iter()
+                    .map(|(kind, estimate, truth)| (kind.name(), relative_error(estimate[i], truth[i])))
+                    .collect(),
             })
             .collect();
-        tables.push(CoefficientTable { table, time: time[k], coefficients });
+        tables.push(CoefficientTable { table, time: time[k], smoothed_time: smoothed_at, coefficients });
         // To the millisecond: a log's times are its nanoseconds over 1e9.
-        let at = (time[k] * 1e3).round() / 1e3;
+        let millisecond = |t: f64| (t * 1e3).round() / 1e3;
+        let at = millisecond(time[k]);
         let title = if published {
             format!("{table}, {half} (at {at} s)")
         } else {
             format!("{}, {half} (at {at} s; {table}'s coefficients, no paper figures)", shown.case.manoeuvre)
         };
-        println!("{title}: relative error of each filter's estimate, %");
+        let smoothed_title = match smoothed_at {
+            Some(t) if t == time[k] => "; after │, of its smoothed estimate of the same instant".to_string(),
+            Some(t) => format!("; after │, of its smoothed estimate of {} s, the last it reaches", millisecond(t)),
+            None => String::new(),
+        };
+        println!("{title}: relative error of each filter's estimate, %{smoothed_title}");
         let mut header = format!("{:<6} {:>8} {:>9} {:>7}", "coef", "true", "paper SVD", "err %");
         for r in runs {
             let _ = write!(header, " {:>8}", r.kind.name());
+        }
+        if !smoothed_rows.is_empty() {
+            header.push_str(" │");
+            for (kind, ..) in &smoothed_rows {
+                let _ = write!(header, " {:>8}", kind.name());
+            }
         }
         println!("{header}");
         for i in 0..10 {
@@ -634,12 +826,19 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
             for r in runs {
                 let _ = write!(row, " {:>+8.3}", relative_error(r.coefficients[k][i], true_values[i]));
             }
+            if !smoothed_rows.is_empty() {
+                row.push_str(" │");
+                for (_, estimate, truth) in &smoothed_rows {
+                    let _ = write!(row, " {:>+8.3}", relative_error(estimate[i], truth[i]));
+                }
+            }
             println!("{row}");
         }
     }
     let after = runs[0].truth[end];
     let mut filters = Vec::new();
     let mut back = format!("{:<26}", "back within 3 % / 1 %, s");
+    let mut back_smoothed = format!("{:<26}", "the same, smoothed, s");
     let mut rejected = format!("{:<26}", "rows rejected by the gate");
     let mut difference = format!("{:<26}", "vs library (largest |Δ|)");
     for r in runs {
@@ -652,6 +851,33 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
         let (within_3, within_1) = (within(0.03), within(0.01));
         let text = |seconds: Option<f64>| seconds.map_or("never".to_string(), |s| format!("{s:.2}"));
         let _ = write!(back, " {:>12}", format!("{}/{}", text(within_3), text(within_1)));
+        let smoothed = r.smoothed.as_ref().map(|s| {
+            // The same, up to the last time the smoothed estimates reach.
+            let within = |bound: f64| {
+                let last = s.time.len().checked_sub(1)?;
+                let from = s.time.iter().position(|&t| t > shown.change_at - 0.5 * shown.sample_time)?;
+                (from..=last)
+                    .find(|&k| {
+                        (k..=last).all(|j| (0..10).all(|i| (s.coefficients[j][i] / after[i] - 1.0).abs() <= bound))
+                    })
+                    .map(|k| s.time[k] - shown.change_at)
+            };
+            SmoothedCoefficients {
+                lag: SMOOTHING_LAG,
+                back_within_3_percent: within(0.03),
+                back_within_1_percent: within(0.01),
+                coefficients: s.figures.clone(),
+            }
+        });
+        let _ = write!(
+            back_smoothed,
+            " {:>12}",
+            smoothed.as_ref().map_or("—".into(), |s| format!(
+                "{}/{}",
+                text(s.back_within_3_percent),
+                text(s.back_within_1_percent)
+            ))
+        );
         if let Some(checked) = &r.checked {
             let _ = write!(rejected, " {:>12}", checked.rejected);
             let _ = write!(difference, " {:>12.1e}", checked.difference);
@@ -669,11 +895,15 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
             two_sigma_coverage_min: sigma.and_then(|s| s.coverage_min(|c| c.two_sigma_coverage)),
             normalised_error_worst_coefficient: sigma.and_then(|s| s.worst()).map(|(name, _)| name),
             coefficients: sigma.map(|s| s.coefficients.clone()).unwrap_or_default(),
+            smoothed,
         });
     }
     let names: String = runs.iter().map(|r| format!(" {:>12}", r.kind.name())).collect();
     println!("after the change{}{names}", " ".repeat(10));
     println!("{back}");
+    if runs.iter().any(|r| r.smoothed.is_some()) {
+        println!("{back_smoothed}");
+    }
     if runs.iter().all(|r| r.checked.is_some()) {
         println!("{rejected}\n{difference}{}", fmu_only_note(shown.fmu_only));
     }
@@ -686,7 +916,7 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
         );
         for r in runs {
             if let Some(sigma) = &r.sigma {
-                println!("  {:<8} {}", r.kind.name(), sigma_line(sigma));
+                println!("  {:<8} {}{}", r.kind.name(), sigma_line(sigma), smoothed_coverage(r.smoothed.as_ref()));
             }
         }
     }
@@ -694,6 +924,15 @@ fn print_tables(runs: &[FilterRun], time: &[f64], shown: &Shown<'_>) -> (Vec<Coe
         println!("paper: {PAPER_CLAIM}");
     }
     (tables, filters)
+}
+
+/// What a σ line says of the smoothed coefficients' σ: their lowest 1σ/2σ coverage.
+fn smoothed_coverage(smoothed: Option<&SmoothedRun>) -> String {
+    let Some(s) = smoothed else { return String::new() };
+    let lowest = |coverage: fn(&SmoothedFigures) -> Option<f64>| {
+        s.figures.values().filter_map(coverage).reduce(f64::min).map_or("—".into(), |c| format!("{c:.3}"))
+    };
+    format!("  smoothed 1σ/2σ min {}/{}", lowest(|f| f.one_sigma_coverage), lowest(|f| f.two_sigma_coverage))
 }
 
 /// A run's σ figures as the σ lines print them.
