@@ -530,7 +530,10 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             }
         }
         match compared {
-            Ok((_, recording)) => println!("comparison recording, every filter in one: {}", recording.display()),
+            Ok((_, recording)) => println!(
+                "comparison recording, every filter, or the default one standing for those within its σ: {}",
+                recording.display()
+            ),
             Err(e) => {
                 failures += 1;
                 println!("FAILED to compare the filters: {e}");

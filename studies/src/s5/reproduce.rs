@@ -625,7 +625,10 @@ fn six_dof(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures
     let shown = Shown { case, change_at, sample_time: settings.sample_time, fmu_only: given.fmu_only };
     (figures.tables, figures.filters) = print_tables(&runs, &truth.time, &shown);
     if let Some(recording) = recording {
-        println!("comparison recording, every filter in one: {}", recording.display());
+        println!(
+            "comparison recording, every filter, or the default one standing for those within its σ: {}",
+            recording.display()
+        );
     }
     Ok((failures, figures))
 }
@@ -723,7 +726,10 @@ fn jsbsim(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)
     let shown = Shown { case, change_at, sample_time: settings.sample_time, fmu_only: given.fmu_only };
     (figures.tables, figures.filters) = print_tables(&runs, &time, &shown);
     match compared {
-        Ok(recording) => println!("comparison recording, every filter in one: {}", recording.display()),
+        Ok(recording) => println!(
+            "comparison recording, every filter, or the default one standing for those within its σ: {}",
+            recording.display()
+        ),
         Err(e) => {
             failures += 1;
             println!("FAILED to compare the JSBSim runs: {e}");
