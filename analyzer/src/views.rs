@@ -25,9 +25,50 @@ pub fn estimates_from(run: &Run, topic: &str) -> Result<Run, LogError> {
     Ok(view)
 }
 
-/// Every run seen through each of `topics` in turn: for each run, one view per topic.
+/// Every run seen through each of `topics` in turn: for each run, one view per topic. With
+/// several topics the views are made comparable: each keeps the estimate signals every view
+/// has, over the span every view's estimates cover (a fixed-lag smoother's channel ends its
+/// lag before the run, and smooths only some signals).
 pub fn views(runs: &[Run], topics: &[String]) -> Result<Vec<Run>, LogError> {
-    runs.iter().flat_map(|run| topics.iter().map(move |topic| estimates_from(run, topic))).collect()
+    let mut views: Vec<Run> = runs
+        .iter()
+        .flat_map(|run| topics.iter().map(move |topic| estimates_from(run, topic)))
+        .collect::<Result<_, _>>()?;
+    if topics.len() > 1 {
+        align(&mut views);
+    }
+    Ok(views)
+}
+
+/// Keeps in each view's estimates the signals all have, over the span all cover.
+fn align(views: &mut [Run]) {
+    let estimates = |run: &Run| run.channels.iter().position(|c| c.topic == ESTIMATE);
+    let mut common: Option<Vec<String>> = None;
+    let (mut from, mut until) = (f64::NEG_INFINITY, f64::INFINITY);
+    for view in views.iter() {
+        let Some(k) = estimates(view) else { continue };
+        let channel = &view.channels[k];
+        let names: Vec<String> = channel.signals.iter().map(|s| s.spec.name.clone()).collect();
+        common = Some(match common {
+            None => names,
+            Some(kept) => kept.into_iter().filter(|n| names.contains(n)).collect(),
+        });
+        if let (Some(first), Some(last)) = (channel.time.first(), channel.time.last()) {
+            (from, until) = (from.max(*first), until.min(*last));
+        }
+    }
+    let common = common.unwrap_or_default();
+    for view in views.iter_mut() {
+        let Some(k) = estimates(view) else { continue };
+        let channel = &mut view.channels[k];
+        channel.signals.retain(|s| common.contains(&s.spec.name));
+        let keep: Vec<bool> = channel.time.iter().map(|t| (from..=until).contains(t)).collect();
+        let kept = |values: &[f64]| values.iter().zip(&keep).filter(|(_, k)| **k).map(|(v, _)| *v).collect();
+        channel.time = kept(&channel.time);
+        for signal in &mut channel.signals {
+            signal.values = kept(&signal.values);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -62,5 +103,32 @@ mod tests {
         assert_eq!(estimates_from(&run, ESTIMATE).unwrap(), run);
         assert!(estimates_from(&run, "/nowhere").is_err());
         assert_eq!(views(&[run.clone(), run], &[ESTIMATE.into(), SMOOTHED.into()]).unwrap().len(), 4);
+    }
+
+    #[test]
+    fn views_of_several_channels_keep_the_signals_and_the_span_all_have() {
+        let mut smoothed = channel(SMOOTHED, 3.0);
+        smoothed.time.pop();
+        smoothed.signals[0].values.pop();
+        let mut estimate = channel(ESTIMATE, 2.0);
+        estimate.signals.push(Signal { spec: SignalSpec::new("nis", "1", ""), values: vec![1.0, 1.0] });
+        let run = Run {
+            file: "run.mcap".into(),
+            metadata: BTreeMap::new(),
+            channels: vec![channel(TRUTH, 1.0), estimate, smoothed],
+            skipped: Vec::new(),
+            damage: None,
+        };
+        let aligned = views(&[run], &[ESTIMATE.into(), SMOOTHED.into()]).unwrap();
+        for view in &aligned {
+            let e = view.channel(ESTIMATE).unwrap();
+            assert_eq!(e.time, [0.0], "the span both cover");
+            assert_eq!(
+                e.signals.iter().map(|s| s.spec.name.as_str()).collect::<Vec<_>>(),
+                ["F"],
+                "the signals both have"
+            );
+        }
+        assert_eq!(aligned[1].channel(ESTIMATE).unwrap().signals[0].values, [3.0]);
     }
 }
