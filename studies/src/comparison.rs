@@ -8,16 +8,19 @@ use std::path::{Path, PathBuf};
 use analyzer::compare::{compare_runs, Comparison};
 use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
+use analyzer::views::views;
 use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::{Channel, Run};
+use log_format::write::{ESTIMATE, SMOOTHED};
 
 /// One case's runs compared: the comparison, written as `<stem>.json` and as the Rerun
 /// recording `<stem>.rrd`, whose path is returned with it. Where every run agrees with the
 /// run of `default` (the FMU's default filter) within that run's σ at every sample, the
-/// recording holds that run alone, its report naming the others and how far they are (in
-/// σ): five overlaid lines identical to four digits show nothing a reviewer can use. The
-/// JSON and the returned comparison keep every run.
+/// recording holds that run alone, with its smoothed estimates (`/smoothed`) as a second run
+/// where it has them, its report naming the others and how far they are (in σ): five
+/// overlaid lines identical to four digits show nothing a reviewer can use. The JSON and the
+/// returned comparison keep every run.
 pub fn compare_case_standing_in<'a>(
     runs: &'a [Run],
     options: &Options,
@@ -29,10 +32,23 @@ pub fn compare_case_standing_in<'a>(
     comparison.write_json(&stem.with_extension("json"))?;
     match stand_in(&comparison, default) {
         Some((index, note)) => {
+            // The default's run, and its smoothed estimates beside it where the FMU smoothed.
             let alone = &runs[index..=index];
-            let mut shown = compare_runs(alone, options)?;
+            let topics: Vec<String> = [ESTIMATE, SMOOTHED]
+                .into_iter()
+                .filter(|topic| alone[0].channel(topic).is_ok())
+                .map(String::from)
+                .collect();
+            let views = views(alone, &topics)?;
+            let mut shown = compare_runs(&views, options)?;
             shown.notes.push(note);
-            write_rrd(&shown, alone, &recording)?;
+            if topics.len() > 1 {
+                shown.notes.push(format!(
+                    "**Smoothed beside it.** The {default}'s fixed-lag smoothed estimates (the FMU's `smoothing_lag`) \
+                     are the second run, on the signals the FMU smooths and the span they cover."
+                ));
+            }
+            write_rrd(&shown, &views, &recording)?;
         }
         None => write_rrd(&comparison, runs, &recording)?,
     }
@@ -140,7 +156,7 @@ pub fn units(pairs: &[(&'static str, &'static str)]) -> BTreeMap<&'static str, &
 mod tests {
     use super::*;
     use log_format::read::Signal;
-    use log_format::write::{SignalSpec, ESTIMATE, TRUTH};
+    use log_format::write::{SignalSpec, TRUTH};
 
     /// A run of `filter` whose estimate of `F` is the truth plus `offset`, σ 0.1.
     fn run(filter: &str, offset: f64) -> Run {
