@@ -190,11 +190,12 @@ impl SupervisedFilter {
     pub fn smooth_with_lag(&mut self, states: &[usize], lag: usize) -> Result<(), FilterError> {
         let mut smoother = FixedLagSmoother::new(self.filter.state_dim(), states, lag)?;
         self.keep_transitions();
-        let Some(smoothing) = self.smoothing.as_deref_mut() else { unreachable!("kept just above") };
-        self.filter.write_covariance(&mut smoothing.covariance);
-        smoother.start(self.filter.time(), self.filter.mean(), &smoothing.covariance);
-        smoothing.fixed_lag = Some(smoother);
-        smoothing.open = false;
+        if let Some(smoothing) = self.smoothing.as_deref_mut() {
+            self.filter.write_covariance(&mut smoothing.covariance);
+            smoother.start(self.filter.time(), self.filter.mean(), &smoothing.covariance);
+            smoothing.fixed_lag = Some(smoother);
+            smoothing.open = false;
+        }
         Ok(())
     }
 
@@ -226,7 +227,11 @@ impl SupervisedFilter {
             // An update at the smoother's own instant (the first sample's): its belief.
             return Some(smoother.own_estimate(reader.time(), reader.mean(), &smoothing.covariance));
         }
-        smoothing.pending.clone_from(&smoothing.transition);
+        // Copied in place: a read allocates nothing.
+        let (from, pending) = (&smoothing.transition, &mut smoothing.pending);
+        pending.cross.copy_from(&from.cross);
+        pending.predicted.mean.copy_from(&from.predicted.mean);
+        pending.predicted.covariance.copy_from(&from.predicted.covariance);
         let Transition { predicted, .. } = &mut smoothing.pending;
         self.supervisor.apply_pending_to_prediction(reader.noise().q(), &mut predicted.mean, &mut predicted.covariance);
         Some(smoother.estimate_with(reader.time(), &smoothing.pending, reader.mean(), &smoothing.covariance))
