@@ -495,10 +495,7 @@ impl SupervisedFilter {
                 filter: self.filter.as_ref(),
                 supervisor: &self.supervisor,
                 events: &self.events,
-                transition: self
-                    .smoothing
-                    .as_deref()
-                    .and_then(|s| (s.predicted_to == Some(self.filter.time())).then_some(&s.transition)),
+                transition: self.transition(),
             });
             self.events.clear();
         }

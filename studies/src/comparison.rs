@@ -15,23 +15,24 @@ use log_format::read::{Channel, Run};
 use log_format::write::{ESTIMATE, SMOOTHED};
 
 /// One case's runs compared: the comparison, written as `<stem>.json` and as the Rerun
-/// recording `<stem>.rrd`, whose path is returned with it. Where every run agrees with the
-/// run of `default` (the FMU's default filter) within that run's σ at every sample, the
+/// recording `<stem>.rrd`, whose path is returned with it. Given a `default` (the FMU's
+/// default filter, where the runs are filter kinds), where every run agrees with the run
+/// of `default` within that run's σ at every sample, the
 /// recording holds that run alone, with its smoothed estimates (`/smoothed`) as a second run
 /// where it has them, its report naming the others and how far they are (in σ): five
 /// overlaid lines identical to four digits show nothing a reviewer can use. The JSON and the
 /// returned comparison keep every run.
-pub fn compare_case_standing_in<'a>(
+pub fn compare_case<'a>(
     runs: &'a [Run],
     options: &Options,
     stem: &Path,
-    default: FilterKind,
+    default: Option<FilterKind>,
 ) -> Result<(Comparison<'a>, PathBuf), log_format::LogError> {
     let comparison = compare_runs(runs, options)?;
     let recording = stem.with_extension("rrd");
     comparison.write_json(&stem.with_extension("json"))?;
-    match stand_in(&comparison, default) {
-        Some((index, note)) => {
+    match default.and_then(|default| stand_in(&comparison, default).map(|found| (default, found))) {
+        Some((default, (index, note))) => {
             // The default's run, and its smoothed estimates beside it where the FMU smoothed.
             let alone = &runs[index..=index];
             let topics: Vec<String> = [ESTIMATE, SMOOTHED]
@@ -52,19 +53,6 @@ pub fn compare_case_standing_in<'a>(
         }
         None => write_rrd(&comparison, runs, &recording)?,
     }
-    Ok((comparison, recording))
-}
-
-/// [`compare_case_standing_in`] without a stand-in: the recording holds every run.
-pub fn compare_case<'a>(
-    runs: &'a [Run],
-    options: &Options,
-    stem: &Path,
-) -> Result<(Comparison<'a>, PathBuf), log_format::LogError> {
-    let comparison = compare_runs(runs, options)?;
-    let recording = stem.with_extension("rrd");
-    comparison.write_json(&stem.with_extension("json"))?;
-    write_rrd(&comparison, runs, &recording)?;
     Ok((comparison, recording))
 }
 

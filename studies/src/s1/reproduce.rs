@@ -23,7 +23,7 @@ use log_format::write::PREDICTION;
 
 use serde::Serialize;
 
-use crate::comparison::{compare_case_standing_in, log_path, units, write_table};
+use crate::comparison::{compare_case, log_path, units, write_table};
 use crate::smoothed::{smoothed_figures, SmoothedFigures};
 use cosim::fmu_driver::ImportedFmu;
 use shard::Shard;
@@ -167,7 +167,7 @@ const UNITS: [(&str, &str); 8] = [
 const UNSEEN_NOISE: [f64; 2] = [0.01, 0.05];
 
 /// The FMU's default filter: its run stands for the others in a case's recording when they
-/// all agree within its σ (`comparison::compare_case_standing_in`).
+/// all agree within its σ (`comparison::compare_case`).
 const DEFAULT_FILTER: FilterKind = FilterKind::SrCkf;
 
 /// The filter of the unseen cases: the paper's, and the FMU's default. Every kind on each
@@ -254,7 +254,7 @@ fn run_case(
         rows.push((kind, result));
     }
     let mut recording = None;
-    let compared = compare_case_standing_in(&runs, options, stem, DEFAULT_FILTER).and_then(|(comparison, written)| {
+    let compared = compare_case(&runs, options, stem, Some(DEFAULT_FILTER)).and_then(|(comparison, written)| {
         recording = Some(written);
         let after_step =
             runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));

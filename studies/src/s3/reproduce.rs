@@ -420,19 +420,22 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
     }
     let options = Options { from: SETTLE, psd_segment: settings.rate.round() as usize, ..Options::default() };
     let stem = dir.join(case.name());
-    let compared = compare_case(&runs, &options, &stem).map_err(anyhow::Error::from).and_then(|(comparison, rrd)| {
-        for (((index, counts, difference, smoothed), report), run) in checked.iter().zip(&comparison.runs).zip(&runs) {
-            let entry = &mut figures[*index];
-            entry.rejected_rows = Some(counts.rejected);
-            entry.fmu_vs_in_process_max_abs_difference = Some(*difference);
-            entry.nis = report.nis.clone();
-            entry.wheelsets = wheelsets(&report.pairs)?;
-            if *smoothed {
-                add_smoothed(&mut entry.wheelsets, run, &options)?;
+    let compared =
+        compare_case(&runs, &options, &stem, None).map_err(anyhow::Error::from).and_then(|(comparison, rrd)| {
+            for (((index, counts, difference, smoothed), report), run) in
+                checked.iter().zip(&comparison.runs).zip(&runs)
+            {
+                let entry = &mut figures[*index];
+                entry.rejected_rows = Some(counts.rejected);
+                entry.fmu_vs_in_process_max_abs_difference = Some(*difference);
+                entry.nis = report.nis.clone();
+                entry.wheelsets = wheelsets(&report.pairs)?;
+                if *smoothed {
+                    add_smoothed(&mut entry.wheelsets, run, &options)?;
+                }
             }
-        }
-        Ok(rrd)
-    });
+            Ok(rrd)
+        });
     let (failure, recording) = match compared {
         Ok(rrd) => (None, Some(rrd)),
         Err(e) => (Some(format!("{e:#}")), None),

@@ -40,7 +40,7 @@ use super::compare::{compare_with, print_comparison, Comparison, PAPER_MEAN_REDU
 use super::fmu_run::{self, COMPARED, IDENTIFIER};
 use super::metrics::{reduction, score_position, score_speed, SpeedScore};
 use super::ours::{self, Settings, Tuning};
-use crate::comparison::{compare_case_standing_in, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
 use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use truth::s4::channels::simulate;
@@ -450,7 +450,7 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             }
         }
         line.push_str(&fmu_only_note(&fmu_only));
-        let compared = compare_case_standing_in(&logs, &Options::default(), &stem, FilterKind::SrCkf);
+        let compared = compare_case(&logs, &Options::default(), &stem, Some(FilterKind::SrCkf));
         if let Ok((comparison, _)) = &compared {
             for (report, &i) in comparison.runs.iter().zip(&logged) {
                 filters[i].speed = SignalSigma::of(report, "speed");
