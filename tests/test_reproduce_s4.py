@@ -7,7 +7,9 @@ the `table.json` it writes beside its logs.
   ours has the smallest mean and largest speed errors and position error; every spike,
   slot slip and offset is caught, with false alarms under 0.1 % of the
   channel-telegrams.
-- Each run is logged, the analyzer reads it, and the runs are compared in one recording.
+- Each run is logged, the analyzer reads it, and the runs are compared in one recording,
+  which holds ours and the study's baselines (the raw average, the paper's fused speed and
+  its UKF): each baseline is a log the analyzer scores as the table does.
 - Beside its accuracy, each filter's σ of speed and position is checked by the analyzer's
   figures, which the table carries as the comparison has them: their 1σ and 2σ coverage,
   mean (e/σ)² with its reading, and the run's NIS/rows with its reading.
@@ -121,6 +123,36 @@ def test_each_run_is_logged_and_compared_in_one_recording(reproduced, analyzer_b
         assert proc.returncode == 0, proc.stderr
         assert proc.stdout.startswith(f"{name}: ") and "speed" in proc.stdout
     assert (out / "s4" / "paper.rrd").stat().st_size > 0
+
+
+BASELINES = {"raw_average": ("raw_average", "raw average"), "paper_fused": ("paper_fused", "paper fused"),
+             "paper_fused_ukf": ("paper_ukf", "paper UKF")}
+
+
+def test_the_recording_holds_ours_and_the_baselines_whose_logs_hold_the_tables_series(
+    reproduced, paper_run, analyzer_bin, tmp_path
+):
+    """The comparison recording shows ours (the SRCKF standing for the kinds, then its
+    smoothed estimates) and the baselines the study compares it with. Each baseline is a
+    log beside ours that the analyzer reads on its own: from telegram 1 (its first speed)
+    on, its speed RMSE and fraction in the ETCS band are the table's figures of it, and
+    only the paper's UKF has a σ."""
+    out, _ = reproduced
+    text = (out / "stdout.txt").read_text()
+    assert "comparison recording (SRCKF, SRCKF smoothed, raw average, paper fused, paper UKF: " in text
+    c = paper_run["comparison"]
+    for key, (suffix, label) in BASELINES.items():
+        log, report = out / "s4" / f"paper_{suffix}.mcap", tmp_path / f"{suffix}.json"
+        proc = subprocess.run(
+            [str(analyzer_bin), "report", str(log), "--json", str(report)], capture_output=True, text=True
+        )
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stdout.startswith(f"{label}: "), proc.stdout
+        (speed,) = [p for p in json.loads(report.read_text())["runs"][0]["pairs"] if p["truth"] == "speed"]
+        assert speed["samples"] == paper_run["telegrams"] - 1, key
+        assert speed["rmse"] == pytest.approx(c[key]["speed"]["error"]["rms"], rel=1e-12), key
+        assert speed["in_tolerance"] == pytest.approx(c[key]["in_etcs_band_fraction"], abs=1e-12), key
+        assert (speed["two_sigma_coverage"] is not None) == (key == "paper_fused_ukf"), key
 
 
 def assert_reading_of_its_interval(value: float, interval: list[float], reading: str, where) -> None:

@@ -163,9 +163,9 @@ pub const COLUMNS: [Column; 12] = [
         key: "final_relative_error",
         heading: "final rel",
         goal: Goal::Lowest,
-        value: |p| Some(p.metrics.final_relative_error),
-        text: |p| format!("{:.2e}", p.metrics.final_relative_error),
-        where_defined: false,
+        value: |p| p.metrics.final_relative_error,
+        text: |p| p.metrics.final_relative_error.map_or("—".into(), |v| format!("{v:.2e}")),
+        where_defined: true,
     },
     Column {
         key: "psd_agreement_band",

@@ -33,8 +33,10 @@ pub struct Metrics {
     pub running_rmse_mean_converged: f64,
     /// Variance of the running RMSE from the convergence time on.
     pub running_rmse_var_converged: f64,
-    /// Relative error of the last sample, `|estimate − truth| / |truth|`.
-    pub final_relative_error: f64,
+    /// Relative error of the last sample, `|estimate − truth| / |truth|`; `None` where the
+    /// truth ends near zero (below [`NEAR_ZERO`] of its RMS: a train at rest, a load
+    /// passing zero), where the ratio says nothing of the estimate.
+    pub final_relative_error: Option<f64>,
 }
 
 /// Pearson's correlation coefficient; NaN when either signal is constant.
@@ -108,8 +110,18 @@ pub fn compare_with_running_rmse(truth: &[f64], estimate: &[f64], running: &[f64
         running_rmse_max_converged: tail.iter().copied().fold(0.0, f64::max),
         running_rmse_mean_converged: mean,
         running_rmse_var_converged: tail.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / tail.len() as f64,
-        final_relative_error: (estimate[n - 1] - truth[n - 1]).abs() / truth[n - 1].abs(),
+        final_relative_error: final_relative_error(truth, estimate),
     }
+}
+
+/// Below this fraction of the truth's RMS, the truth's last value is near zero.
+pub const NEAR_ZERO: f64 = 1e-3;
+
+/// `|estimate − truth| / |truth|` at the last sample, unless the truth ends near zero.
+fn final_relative_error(truth: &[f64], estimate: &[f64]) -> Option<f64> {
+    let (&last, &estimated) = (truth.last()?, estimate.last()?);
+    let rms = (truth.iter().map(|t| t * t).sum::<f64>() / truth.len() as f64).sqrt();
+    (last.abs() > NEAR_ZERO * rms).then(|| (estimated - last).abs() / last.abs())
 }
 
 #[cfg(test)]
@@ -162,5 +174,14 @@ mod tests {
         assert!(c.running_rmse_peak >= 10.0 - 1e-9);
         assert!(c.running_rmse_max_converged < 0.02);
         assert!(c.rmse_converged < 0.01);
+    }
+
+    #[test]
+    fn a_truth_ending_near_zero_has_no_final_relative_error() {
+        let estimate = [1.1, 2.2, 0.05];
+        let ends_at_rest = compare(&[1.0, 2.0, 0.0], &estimate, 1.0, 0.1, 0.0);
+        assert_eq!(ends_at_rest.final_relative_error, None, "a train at rest: |e|/0");
+        let ends_moving = compare(&[1.0, 2.0, 0.1], &estimate, 1.0, 0.1, 0.0);
+        assert!((ends_moving.final_relative_error.unwrap() - 0.5).abs() < 1e-12);
     }
 }

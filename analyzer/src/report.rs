@@ -125,6 +125,9 @@ pub struct Tolerance<'a> {
 /// The tolerance of the truth signal `X` is the truth signal `X` + this.
 pub const TOLERANCE_SUFFIX: &str = "_tolerance";
 
+/// The suffix of an estimate's σ: `F_std` is the standard deviation of the estimate `F`.
+pub const SIGMA_SUFFIX: &str = "_std";
+
 /// The analysis of a log.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report<'a> {
@@ -213,7 +216,7 @@ pub fn analyse<'a>(run: &'a Run, options: &Options) -> Result<Report<'a>, LogErr
         };
         let truth_values = picked(&t_signal.values, TRUTH, &t_name, 0)?;
         let estimate_values = picked(&e_signal.values, topic, &e_name, 1)?;
-        let sigma_name = format!("{e_name}_std");
+        let sigma_name = format!("{e_name}{SIGMA_SUFFIX}");
         let sigma = match estimate.signal(&sigma_name) {
             Some(s) => Some(picked(&s.values, topic, &sigma_name, 1)?),
             None => None,

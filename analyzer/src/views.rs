@@ -6,6 +6,8 @@ use log_format::read::Run;
 use log_format::write::ESTIMATE;
 use log_format::LogError;
 
+use crate::report::SIGMA_SUFFIX;
+
 /// The metadata key a view records its estimate channel under (absent for `/estimate`).
 pub const ESTIMATE_TOPIC: &str = "estimate_topic";
 
@@ -40,15 +42,19 @@ pub fn views(runs: &[Run], topics: &[String]) -> Result<Vec<Run>, LogError> {
     Ok(views)
 }
 
-/// Keeps in each view's estimates the signals all have, over the span all cover.
-fn align(views: &mut [Run]) {
+/// Keeps in each run's estimates the signals all have (with each one's σ, `<name>_std`,
+/// where the run has it: a baseline without σ is still compared), over the span all cover.
+/// Runs that start or end at other samples (a fixed-lag smoother's channel, a baseline
+/// whose first estimate is one sample later) become comparable against the same truth.
+pub fn align(views: &mut [Run]) {
     let estimates = |run: &Run| run.channels.iter().position(|c| c.topic == ESTIMATE);
+    let is_sigma = |name: &str| name.ends_with(SIGMA_SUFFIX);
     let mut common: Option<Vec<String>> = None;
     let (mut from, mut until) = (f64::NEG_INFINITY, f64::INFINITY);
     for view in views.iter() {
         let Some(k) = estimates(view) else { continue };
         let channel = &view.channels[k];
-        let names: Vec<String> = channel.signals.iter().map(|s| s.spec.name.clone()).collect();
+        let names: Vec<String> = channel.signals.iter().map(|s| s.spec.name.clone()).filter(|n| !is_sigma(n)).collect();
         common = Some(match common {
             None => names,
             Some(kept) => kept.into_iter().filter(|n| names.contains(n)).collect(),
@@ -58,10 +64,14 @@ fn align(views: &mut [Run]) {
         }
     }
     let common = common.unwrap_or_default();
+    let kept_signal = |name: &str| {
+        let base = name.strip_suffix(SIGMA_SUFFIX).unwrap_or(name);
+        common.iter().any(|c| c == base)
+    };
     for view in views.iter_mut() {
         let Some(k) = estimates(view) else { continue };
         let channel = &mut view.channels[k];
-        channel.signals.retain(|s| common.contains(&s.spec.name));
+        channel.signals.retain(|s| kept_signal(&s.spec.name));
         let keep: Vec<bool> = channel.time.iter().map(|t| (from..=until).contains(t)).collect();
         let kept = |values: &[f64]| values.iter().zip(&keep).filter(|(_, k)| **k).map(|(v, _)| *v).collect();
         channel.time = kept(&channel.time);
@@ -130,5 +140,38 @@ mod tests {
             );
         }
         assert_eq!(aligned[1].channel(ESTIMATE).unwrap().signals[0].values, [3.0]);
+    }
+
+    #[test]
+    fn aligned_runs_keep_each_ones_sigma_of_a_common_signal() {
+        let with_sigma = |values: Vec<f64>, time: Vec<f64>| Channel {
+            topic: ESTIMATE.to_string(),
+            time,
+            signals: vec![
+                Signal { spec: SignalSpec::new("F", "N", ""), values: values.clone() },
+                Signal { spec: SignalSpec::new("F_std", "N", ""), values },
+            ],
+        };
+        let run = |estimate: Channel| Run {
+            file: "run.mcap".into(),
+            metadata: BTreeMap::new(),
+            channels: vec![channel(TRUTH, 1.0), estimate],
+            skipped: Vec::new(),
+            damage: None,
+        };
+        let filter = run(with_sigma(vec![2.0, 2.0], vec![0.0, 1.0]));
+        // A baseline without σ, its first estimate one sample later.
+        let mut baseline = run(channel(ESTIMATE, 4.0));
+        let estimate = &mut baseline.channels[1];
+        (estimate.time, estimate.signals[0].values) = (vec![1.0], vec![4.0]);
+        let mut runs = [filter, baseline];
+        align(&mut runs);
+        let names = |run: &Run| -> Vec<String> {
+            run.channel(ESTIMATE).unwrap().signals.iter().map(|s| s.spec.name.clone()).collect()
+        };
+        assert_eq!(names(&runs[0]), ["F", "F_std"], "the filter keeps its σ");
+        assert_eq!(names(&runs[1]), ["F"]);
+        assert_eq!(runs[0].channel(ESTIMATE).unwrap().time, [1.0], "from the baseline's first estimate");
+        assert_eq!(runs[0].channel(TRUTH).unwrap().time, [0.0, 1.0], "the truth is left whole");
     }
 }

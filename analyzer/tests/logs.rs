@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use analyzer::report::{analyse, Options};
-use log_format::read::read_log;
-use log_format::write::{LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
+use log_format::read::{read_log, Channel, Signal};
+use log_format::write::{write_channels, LogWriter, SignalSpec, ESTIMATE, MEASUREMENTS, PREDICTION, TRUTH};
 use log_format::LogError;
 
 fn temp(name: &str) -> PathBuf {
@@ -52,6 +52,37 @@ fn a_log_round_trips_with_its_metadata_units_and_missing_values() {
     let e = run.channel(ESTIMATE).unwrap();
     assert_eq!(e.signal("F").unwrap().spec, SignalSpec::new("F", "N", "estimated load"));
     assert_eq!(e.time[1], 0.01);
+}
+
+#[test]
+fn channels_read_back_are_written_again_as_they_were_even_on_other_time_grids() {
+    let path = temp("rewritten_source.mcap");
+    write_run(&path, |_, _, _| {});
+    let run = read_log(&path).unwrap();
+    // A channel of its own span (from the tenth sample, every other one), made in memory.
+    let truth = run.channel(TRUTH).unwrap();
+    let later = Channel {
+        topic: "/later".into(),
+        time: truth.time[10..].iter().step_by(2).copied().collect(),
+        signals: vec![Signal {
+            spec: SignalSpec::new("G", "N", "a later channel"),
+            values: truth.signals[0].values[10..].iter().step_by(2).map(|v| -v).collect(),
+        }],
+    };
+    let copy = temp("rewritten.mcap");
+    let channels: Vec<&Channel> = run.channels.iter().chain([&later]).collect();
+    write_channels(&copy, &run.metadata, &channels).unwrap();
+    let again = read_log(&copy).unwrap();
+    assert_eq!(again.metadata, run.metadata);
+    for channel in channels {
+        let read = again.channel(&channel.topic).unwrap();
+        assert_eq!(read.time, channel.time, "{}", channel.topic);
+        for (a, b) in read.signals.iter().zip(&channel.signals) {
+            assert_eq!(a.spec, b.spec);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a.values), bits(&b.values), "{} {}: bit for bit, NaN too", channel.topic, a.spec.name);
+        }
+    }
 }
 
 #[test]

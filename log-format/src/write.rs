@@ -19,6 +19,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use crate::error::LogError;
+use crate::read::Channel;
 
 /// The measurements channel.
 pub const MEASUREMENTS: &str = "/measurements";
@@ -200,4 +201,24 @@ impl LogWriter {
         self.writer.finish().map_err(|source| LogError::Mcap { file: self.file.clone(), source })?;
         Ok(())
     }
+}
+
+/// Writes `channels` (read from logs, or made in memory) as a log at `path` with
+/// `metadata`, their samples merged in time order (at one time, in the order given).
+pub fn write_channels(path: &Path, metadata: &BTreeMap<String, String>, channels: &[&Channel]) -> Result<(), LogError> {
+    let mut log = LogWriter::create(path, metadata)?;
+    let mut samples = Vec::new();
+    for &channel in channels {
+        let specs: Vec<SignalSpec> = channel.signals.iter().map(|s| s.spec.clone()).collect();
+        let id = log.add_channel(&channel.topic, &specs)?;
+        samples.extend(channel.time.iter().enumerate().map(|(k, &t)| (t, id, channel, k)));
+    }
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut values = Vec::new();
+    for (time, id, channel, k) in samples {
+        values.clear();
+        values.extend(channel.signals.iter().map(|s| s.values[k]));
+        log.write(id, time, &values)?;
+    }
+    log.finish()
 }

@@ -8,29 +8,51 @@ use std::path::{Path, PathBuf};
 use analyzer::compare::{compare_runs, Comparison};
 use analyzer::report::Options;
 use analyzer::rrd::write_rrd;
-use analyzer::views::views;
+use analyzer::views::{align, views};
 use anyhow::Context;
 use estimator::FilterKind;
 use log_format::read::{Channel, Run};
 use log_format::write::{ESTIMATE, SMOOTHED};
 
+/// The metadata key of a baseline's log that says what it computes.
+pub const PIPELINE: &str = "pipeline";
+
+/// One case's runs compared, and what its recording shows.
+pub struct Compared<'a> {
+    /// Every run of the case (not the baselines), compared: the figures the study prints.
+    pub comparison: Comparison<'a>,
+    /// The Rerun recording, `<stem>.rrd`.
+    pub recording: PathBuf,
+    /// The labels of the runs the recording shows, in its order.
+    pub shown: Vec<String>,
+}
+
 /// One case's runs compared: the comparison, written as `<stem>.json` and as the Rerun
-/// recording `<stem>.rrd`, whose path is returned with it. Given a `default` (the FMU's
-/// default filter, where the runs are filter kinds), where every run agrees with the run
-/// of `default` within that run's σ at every sample, the
-/// recording holds that run alone, with its smoothed estimates (`/smoothed`) as a second run
-/// where it has them, its report naming the others and how far they are (in σ): five
-/// overlaid lines identical to four digits show nothing a reviewer can use. The JSON and the
-/// returned comparison keep every run.
+/// recording `<stem>.rrd`.
+///
+/// - Given a `default` (the FMU's default filter, where the runs are filter kinds), where
+///   every run agrees with the run of `default` within that run's σ at every sample, the
+///   recording holds that run alone, with its smoothed estimates (`/smoothed`) as a second
+///   run where it has them, its report naming the others and how far they are (in σ): five
+///   overlaid lines identical to four digits show nothing a reviewer can use.
+/// - `baselines` are the runs the study compares ours with (S4's raw average and the paper's
+///   pipeline), logs of the same truth made outside the FMU; they follow the case's runs in
+///   the recording (whose measurements view is the first run's), and every shown run is cut
+///   to the signals and the span all have.
+///
+/// The JSON and the returned comparison keep every run of `runs`, and only those.
 pub fn compare_case<'a>(
     runs: &'a [Run],
+    baselines: &[Run],
     options: &Options,
     stem: &Path,
     default: Option<FilterKind>,
-) -> Result<(Comparison<'a>, PathBuf), log_format::LogError> {
+) -> Result<Compared<'a>, log_format::LogError> {
     let comparison = compare_runs(runs, options)?;
     let recording = stem.with_extension("rrd");
     comparison.write_json(&stem.with_extension("json"))?;
+    let mut notes = Vec::new();
+    let mut shown: Vec<Run> = Vec::new();
     match default.and_then(|default| stand_in(&comparison, default).map(|found| (default, found))) {
         Some((default, (index, note))) => {
             // The default's run, and its smoothed estimates beside it where the FMU smoothed.
@@ -40,20 +62,47 @@ pub fn compare_case<'a>(
                 .filter(|topic| alone[0].channel(topic).is_ok())
                 .map(String::from)
                 .collect();
-            let views = views(alone, &topics)?;
-            let mut shown = compare_runs(&views, options)?;
-            shown.notes.push(note);
+            shown.extend(views(alone, &topics)?);
+            notes.push(note);
             if topics.len() > 1 {
-                shown.notes.push(format!(
+                notes.push(format!(
                     "**Smoothed beside it.** The {default}'s fixed-lag smoothed estimates (the FMU's `smoothing_lag`) \
                      are the second run, on the signals the FMU smooths and the span they cover."
                 ));
             }
-            write_rrd(&shown, &views, &recording)?;
         }
-        None => write_rrd(&comparison, runs, &recording)?,
+        None if baselines.is_empty() => {
+            write_rrd(&comparison, runs, &recording)?;
+            let shown = comparison.labels.clone();
+            return Ok(Compared { comparison, recording, shown });
+        }
+        None => shown.extend(runs.iter().cloned()),
     }
-    Ok((comparison, recording))
+    if !baselines.is_empty() {
+        shown.extend(baselines.iter().cloned());
+        align(&mut shown);
+        let described: Vec<String> = baselines
+            .iter()
+            .map(|b| {
+                let label = b.metadata.get("filter").map_or("a baseline", String::as_str);
+                match b.metadata.get(PIPELINE) {
+                    Some(what) => format!("*{label}*: {what}"),
+                    None => format!("*{label}*"),
+                }
+            })
+            .collect();
+        notes.push(format!(
+            "**Baselines.** What the study compares ours with, computed outside the FMU from the same measurements \
+             (their logs are beside this recording's): {}. Every run is shown on the signals and over the span all of \
+             them have.",
+            described.join("; ")
+        ));
+    }
+    let mut figures = compare_runs(&shown, options)?;
+    figures.notes = notes;
+    write_rrd(&figures, &shown, &recording)?;
+    let shown = figures.labels;
+    Ok(Compared { comparison, recording, shown })
 }
 
 /// The run of `default` and the note that it stands for the others, if there are others
@@ -178,6 +227,26 @@ mod tests {
         assert!(stand_in(&compare_runs(&apart, &Options::default()).unwrap(), FilterKind::SrCkf).is_none());
         // No run of the default: nothing stands in.
         assert!(stand_in(&comparison, FilterKind::Ukf).is_none());
+    }
+
+    #[test]
+    fn baselines_follow_the_runs_in_the_recording_but_not_in_the_comparison() {
+        let dir = std::env::temp_dir().join(format!("kalfmu-compare-case-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let runs = [run("CKF", 0.05), run("SRCKF", 0.0)];
+        // A baseline without σ whose first estimate is ten samples later.
+        let mut baseline = run("raw average", 0.3);
+        let estimate = baseline.channels.iter_mut().find(|c| c.topic == ESTIMATE).unwrap();
+        estimate.signals.retain(|s| s.spec.name == "F");
+        estimate.time.drain(..10);
+        estimate.signals[0].values.drain(..10);
+        baseline.metadata.insert(PIPELINE.into(), "the plain mean".into());
+        let compared = compare_case(&runs, &[baseline], &Options::default(), &dir.join("case"), Some(FilterKind::SrCkf))
+            .unwrap();
+        assert_eq!(compared.comparison.labels, ["CKF", "SRCKF"], "the figures are the runs'");
+        assert_eq!(compared.shown, ["SRCKF", "raw average"], "the default stands in, then the baseline");
+        assert!(compared.recording.exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -23,7 +23,7 @@ use log_format::write::PREDICTION;
 
 use serde::Serialize;
 
-use crate::comparison::{compare_case, log_path, units, write_table};
+use crate::comparison::{compare_case, log_path, units, write_table, Compared};
 use crate::smoothed::{smoothed_figures, SmoothedFigures};
 use cosim::fmu_driver::ImportedFmu;
 use shard::Shard;
@@ -254,35 +254,37 @@ fn run_case(
         rows.push((kind, result));
     }
     let mut recording = None;
-    let compared = compare_case(&runs, options, stem, Some(DEFAULT_FILTER)).and_then(|(comparison, written)| {
-        recording = Some(written);
-        let after_step =
-            runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
-        let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
-        let smoothed = runs.iter().map(|run| smoothed_figures(run, options, "F"));
-        let smoothed = smoothed
-            .collect::<anyhow::Result<Vec<_>>>()
-            .map_err(|e| log_format::LogError::Analysis { file: stem.into(), what: format!("{e:#}") })?;
-        let loads = comparison.runs.iter().zip(&after_step).zip(smoothed).map(|((report, after), smoothed)| {
-            let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
-                return Err(format!("the report of {} has no load pair", report.file));
-            };
-            let sigma = SigmaOfLoad {
-                one_sigma_coverage: pair.one_sigma_coverage,
-                two_sigma_coverage: pair.two_sigma_coverage,
-                normalised_error: pair.normalised_error,
-                nis: report.nis.clone(),
-            };
-            Ok(Figures {
-                feedthrough: pair.metrics,
-                band: pair.psd_agreement_band,
-                after_step: after.metrics,
-                sigma,
-                smoothed,
-            })
-        });
-        Ok(loads.collect::<Vec<_>>())
-    });
+    let compared = compare_case(&runs, &[], options, stem, Some(DEFAULT_FILTER)).and_then(
+        |Compared { comparison, recording: written, .. }| {
+            recording = Some(written);
+            let after_step =
+                runs.iter().map(|run| analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() }));
+            let after_step = after_step.collect::<Result<Vec<_>, _>>()?;
+            let smoothed = runs.iter().map(|run| smoothed_figures(run, options, "F"));
+            let smoothed = smoothed
+                .collect::<anyhow::Result<Vec<_>>>()
+                .map_err(|e| log_format::LogError::Analysis { file: stem.into(), what: format!("{e:#}") })?;
+            let loads = comparison.runs.iter().zip(&after_step).zip(smoothed).map(|((report, after), smoothed)| {
+                let (Some(pair), Some(after)) = (load_pair(report), load_pair(after)) else {
+                    return Err(format!("the report of {} has no load pair", report.file));
+                };
+                let sigma = SigmaOfLoad {
+                    one_sigma_coverage: pair.one_sigma_coverage,
+                    two_sigma_coverage: pair.two_sigma_coverage,
+                    normalised_error: pair.normalised_error,
+                    nis: report.nis.clone(),
+                };
+                Ok(Figures {
+                    feedthrough: pair.metrics,
+                    band: pair.psd_agreement_band,
+                    after_step: after.metrics,
+                    sigma,
+                    smoothed,
+                })
+            });
+            Ok(loads.collect::<Vec<_>>())
+        },
+    );
     let figures = compared.map_err(|e| e.to_string()).map(|loads| {
         rows.into_iter()
             .map(|(kind, result)| (kind, result.and_then(|i| loads[i].clone().map_err(anyhow::Error::msg))))

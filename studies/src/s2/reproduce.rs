@@ -55,7 +55,7 @@ use serde::Serialize;
 
 use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::study::{run_filter, user_vehicle, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table, Compared};
 use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::Counts;
@@ -488,19 +488,22 @@ fn run_case(
         ..Options::default()
     };
     let mut recording = None;
-    let figures = compare_case(&runs, &options, stem, Some(FilterKind::SrCkf)).and_then(|(comparison, written)| {
-        recording = Some(written);
-        let mut per_run = Vec::new();
-        for (report, run) in comparison.runs.iter().zip(&runs) {
-            let after = analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() })?;
-            let smoothed = analyse(run, &Options { estimate_topic: SMOOTHED.into(), ..options.clone() })?;
-            let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
-                pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
-            };
-            per_run.push(([wheels(&report.pairs), wheels(&after.pairs), wheels(&smoothed.pairs)], report.nis.clone()));
-        }
-        Ok(per_run)
-    });
+    let figures = compare_case(&runs, &[], &options, stem, Some(FilterKind::SrCkf)).and_then(
+        |Compared { comparison, recording: written, .. }| {
+            recording = Some(written);
+            let mut per_run = Vec::new();
+            for (report, run) in comparison.runs.iter().zip(&runs) {
+                let after = analyse(run, &Options { estimate_topic: PREDICTION.into(), ..options.clone() })?;
+                let smoothed = analyse(run, &Options { estimate_topic: SMOOTHED.into(), ..options.clone() })?;
+                let wheels = |pairs: &[PairReport<'_>]| -> Vec<WheelFigures> {
+                    pairs.iter().map(|p| WheelFigures::of(p, settings.rate)).collect()
+                };
+                per_run
+                    .push(([wheels(&report.pairs), wheels(&after.pairs), wheels(&smoothed.pairs)], report.nis.clone()));
+            }
+            Ok(per_run)
+        },
+    );
     let (ran, comparison_failure) = match figures {
         Ok(figures) => {
             let ran = checked_runs.into_iter().zip(figures).map(

@@ -51,7 +51,7 @@ use start_values::{SetByName, StartValues};
 use super::ceiling::{ceiling, Ceiling};
 use super::fmu_run::{self, Simulated, IDENTIFIER};
 use super::study::{forces_in_model_order, run_filter, user_vehicle, ForceModel, Sensors, Tuning};
-use crate::comparison::{compare_case, largest_difference, rows_of, units, write_table};
+use crate::comparison::{compare_case, largest_difference, rows_of, units, write_table, Compared};
 use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use cosim::master::Counts;
@@ -420,8 +420,8 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
     }
     let options = Options { from: SETTLE, psd_segment: settings.rate.round() as usize, ..Options::default() };
     let stem = dir.join(case.name());
-    let compared =
-        compare_case(&runs, &options, &stem, None).map_err(anyhow::Error::from).and_then(|(comparison, rrd)| {
+    let compared = compare_case(&runs, &[], &options, &stem, None).map_err(anyhow::Error::from).and_then(
+        |Compared { comparison, recording: rrd, .. }| {
             for (((index, counts, difference, smoothed), report), run) in
                 checked.iter().zip(&comparison.runs).zip(&runs)
             {
@@ -435,7 +435,8 @@ fn run_case(given: &Given<'_>, case: Case, truth: &Truth, dir: &Path) -> (CaseFi
                 }
             }
             Ok(rrd)
-        });
+        },
+    );
     let (failure, recording) = match compared {
         Ok(rrd) => (None, Some(rrd)),
         Err(e) => (Some(format!("{e:#}")), None),

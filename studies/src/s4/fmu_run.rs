@@ -93,8 +93,8 @@ pub fn run(
 ) -> anyhow::Result<Counts> {
     let mut parameters = parameters(recording, tuning);
     parameters.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
+    // Speed first: the study is about it, and the recording's first tab is the first signal's.
     let truth = [
-        SignalSpec::new("position", "m", "true position of the reference point"),
         SignalSpec::new("speed", "m/s", "true speed of the reference point"),
         // The requirement the study is judged by, drawn and scored by the analyzer
         // (`X_tolerance`, docs/log-format.md).
@@ -103,6 +103,7 @@ pub fn run(
             "m/s",
             "ETCS speed accuracy (SUBSET-041 §5.3.1): ±2 km/h below 30 km/h, rising linearly to ±12 km/h at 500 km/h",
         ),
+        SignalSpec::new("position", "m", "true position of the reference point"),
     ];
     let metadata = BTreeMap::from([("study".to_string(), "S4".to_string()), ("case".to_string(), case.to_string())]);
     let outputs = [COMPARED.as_slice(), &OTHER_OUTPUTS].concat();
@@ -131,7 +132,7 @@ pub fn run(
         },
         |k| {
             let truth = &recording.truth[k];
-            vec![truth.position, truth.speed, super::metrics::etcs_speed_band(truth.speed)]
+            vec![truth.speed, super::metrics::etcs_speed_band(truth.speed), truth.position]
         },
         log,
         |_| {},

@@ -5,8 +5,10 @@
 //!
 //! - The paper's pipeline ([`paper`]), ours on the positions ([`ours`]), their scores
 //!   ([`metrics`]) and the command that compares them ([`compare`]).
-//! - Ours through the packaged FMU ([`fmu_run`]) in `kalfmu reproduce` ([`reproduce`]).
+//! - Ours through the packaged FMU ([`fmu_run`]) in `kalfmu reproduce` ([`reproduce`]), the
+//!   raw average and the paper's pipeline logged beside it ([`baselines`]).
 
+pub mod baselines;
 pub mod compare;
 pub mod fmu_run;
 pub mod metrics;

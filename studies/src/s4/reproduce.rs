@@ -36,11 +36,12 @@ use log_format::read::{read_log, Run};
 use log_format::write::{ESTIMATE, SMOOTHED};
 use serde::Serialize;
 
+use super::baselines;
 use super::compare::{compare_with, print_comparison, Comparison, PAPER_MEAN_REDUCTION, PAPER_RANGE};
 use super::fmu_run::{self, COMPARED, IDENTIFIER};
 use super::metrics::{reduction, score_position, score_speed, SpeedScore};
 use super::ours::{self, Settings, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table, Compared};
 use crate::smoothed::SMOOTHING_LAG;
 use cosim::fmu_driver::ImportedFmu;
 use truth::s4::channels::simulate;
@@ -450,8 +451,19 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             }
         }
         line.push_str(&fmu_only_note(&fmu_only));
-        let compared = compare_case(&logs, &Options::default(), &stem, Some(FilterKind::SrCkf));
-        if let Ok((comparison, _)) = &compared {
+        // The raw average and the paper's pipeline, logged beside ours for the recording.
+        let ours_log = logs.iter().find(|run| run.metadata.get("filter").map(String::as_str) == Some("SRCKF"));
+        let baselines = match ours_log.map(|ours| baselines::write(&recording, ours, &stem)) {
+            Some(Ok(baselines)) => baselines,
+            Some(Err(e)) => {
+                failures += 1;
+                println!("FAILED to log the baselines: {e:#}");
+                Vec::new()
+            }
+            None => Vec::new(),
+        };
+        let compared = compare_case(&logs, &baselines, &Options::default(), &stem, Some(FilterKind::SrCkf));
+        if let Ok(Compared { comparison, .. }) = &compared {
             for (report, &i) in comparison.runs.iter().zip(&logged) {
                 filters[i].speed = SignalSigma::of(report, "speed");
                 filters[i].position = SignalSigma::of(report, "position");
@@ -530,8 +542,10 @@ pub fn report(seed: u64, quick: bool, start_values: &StartValues, fmu_dir: &Path
             }
         }
         match compared {
-            Ok((_, recording)) => println!(
-                "comparison recording, every filter, or the default one standing for those within its σ: {}",
+            Ok(Compared { recording, shown, .. }) => println!(
+                "comparison recording ({}: every filter, or the default one standing for those within its σ, then \
+                 the baselines): {}",
+                shown.join(", "),
                 recording.display()
             ),
             Err(e) => {

@@ -47,7 +47,7 @@ use serde::Serialize;
 
 use super::fmu_run::{self, Flown, IDENTIFIER};
 use super::study::{run_filter, Tuning};
-use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table};
+use crate::comparison::{compare_case, largest_difference, log_path, rows_of, units, write_table, Compared};
 use crate::smoothed::{SmoothedFigures, SMOOTHING_LAG};
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
 use truth::s5::flight::{measure, simulate_named, Settings};
@@ -606,18 +606,23 @@ fn six_dof(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures
     if runs.is_empty() {
         return Ok((failures, figures));
     }
-    let recording =
-        match compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem, Some(FilterKind::SvdCkf)) {
-            Ok((comparison, recording)) => {
-                attach_sigma(&mut runs, &comparison);
-                Some(recording)
-            }
-            Err(e) => {
-                failures += 1;
-                println!("FAILED to compare the filters: {e}");
-                None
-            }
-        };
+    let recording = match compare_case(
+        &logs,
+        &[],
+        &Options { from: SETTLE, ..Options::default() },
+        &stem,
+        Some(FilterKind::SvdCkf),
+    ) {
+        Ok(Compared { comparison, recording, .. }) => {
+            attach_sigma(&mut runs, &comparison);
+            Some(recording)
+        }
+        Err(e) => {
+            failures += 1;
+            println!("FAILED to compare the filters: {e}");
+            None
+        }
+    };
     let shown = Shown { case, change_at, sample_time: settings.sample_time, fmu_only: given.fmu_only };
     (figures.tables, figures.filters) = print_tables(&runs, &truth.time, &shown);
     if let Some(recording) = recording {
@@ -714,8 +719,8 @@ fn jsbsim(given: &Given<'_>, case: Case) -> anyhow::Result<(usize, TruthFigures)
     }
     // Compared before the tables are printed, which show the σ figures of the comparison.
     let compared =
-        compare_case(&logs, &Options { from: SETTLE, ..Options::default() }, &stem, Some(FilterKind::SvdCkf)).map(
-            |(comparison, recording)| {
+        compare_case(&logs, &[], &Options { from: SETTLE, ..Options::default() }, &stem, Some(FilterKind::SvdCkf)).map(
+            |Compared { comparison, recording, .. }| {
                 attach_sigma(&mut runs, &comparison);
                 recording
             },
