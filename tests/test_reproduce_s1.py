@@ -231,3 +231,42 @@ def test_start_values_are_printed_written_and_change_the_runs(kalfmu_bin, fmu_di
     moved = [c["filters"][0]["feedthrough"]["rmse_converged"] for c in table["cases"]]
     before = [c["filters"][0]["feedthrough"]["rmse_converged"] for c in default["cases"]]
     assert len(moved) == len(before) and all(a != b for a, b in zip(moved, before)), (moved, before)
+
+
+def test_the_tuning_command_writes_a_log_with_its_whole_log_smoothed_estimates(reproduced, analyzer_bin, tmp_path):
+    """`kalfmu-tune LOG --evaluate --smoothed-log OUT` on an FMU run's log: the filtered
+    estimates it writes on /estimate are the FMU's (the same figures against the truth, to
+    the last digit, for every state), and its /smoothed, each sample given the whole log,
+    is compared with them by the analyzer like a second run, with a smaller load RMSE."""
+    from conftest import build_release_binary
+
+    out, _ = reproduced
+    log = out / "s1" / "stiffness_random_srckf.mcap"
+    smoothed_log = tmp_path / "smoothed.mcap"
+    tune = build_release_binary("kalfmu-tune")
+    proc = subprocess.run(
+        [str(tune), str(log), "--evaluate", "--smoothed-log", str(smoothed_log)], capture_output=True, text=True
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert f"wrote {smoothed_log}: 2001 samples" in proc.stdout
+
+    def report(path, *topics):
+        json_path = tmp_path / f"{path.stem}_{len(topics)}.json"
+        args = [a for t in topics for a in ("--estimate-topic", t)]
+        done = subprocess.run(
+            [str(analyzer_bin), "report", str(path), *args, "--json", str(json_path)], capture_output=True, text=True
+        )
+        assert done.returncode == 0, done.stderr
+        return json.loads(json_path.read_text())
+
+    fmu = report(log)["runs"][0]
+    both = report(smoothed_log, "/estimate", "/smoothed")
+    assert both["labels"] == ["SRCKF", "SRCKF smoothed"]
+    filtered, smoothed = both["runs"]
+    fmu_pairs = {p["truth"]: p for p in fmu["pairs"]}
+    for pair in filtered["pairs"]:
+        for figure in ["rmse", "correlation"]:
+            assert pair[figure] == fmu_pairs[pair["truth"]][figure], (pair["truth"], figure)
+    (filtered_load,) = [p for p in filtered["pairs"] if p["truth"] == "F"]
+    (smoothed_load,) = [p for p in smoothed["pairs"] if p["truth"] == "F"]
+    assert smoothed_load["rmse"] < 0.9 * filtered_load["rmse"]

@@ -600,8 +600,9 @@ fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&R
 }
 
 /// Builds the filter an instance with these parameter values runs, its
-/// belief at `start_time`.
-pub(crate) fn build_filter(
+/// belief at `start_time` (also what tools that run an FMU's estimator on a log
+/// build: the tuning command).
+pub fn build_filter(
     descriptor: &Descriptor,
     values: &[f64],
     start_time: f64,
@@ -619,18 +620,10 @@ pub(crate) fn build_filter(
     Ok(filter)
 }
 
-/// The estimation of an instance with these parameter values from `start_time`:
-/// the filter, its twin for reads, the grid and the input timing.
-/// `controls`: those standing at the start.
-pub(crate) fn build_estimation(
-    descriptor: &Descriptor,
-    values: &[f64],
-    start_time: f64,
-    controls: &[f64],
-) -> Result<Estimation, String> {
+/// Builds the supervisor an instance with these parameter values runs over a filter of
+/// `state_dim` states: the gate, the fault flags, the jumps and the adaptation as set.
+pub fn build_supervisor(descriptor: &Descriptor, values: &[f64], state_dim: usize) -> Result<Supervisor, String> {
     let p = Parameters::new(&descriptor.variables, values);
-    let timing = InputTiming::from_value(p.get("input_timing")?)?;
-    let sample_time = p.positive("sample_time")?;
     let count = |name: &str| -> Result<u32, String> { Ok(p.get(name)? as u32) };
     let settings = SupervisorSettings {
         gate_probability: p.get("gate_probability")?,
@@ -646,14 +639,30 @@ pub(crate) fn build_estimation(
         max_process_noise_scale: p.get("max_process_noise_scale")?,
         ..SupervisorSettings::default()
     };
-    let filter = build_filter(descriptor, values, start_time)?;
-    let n = filter.state_dim();
     let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())
-        .and_then(|s| s.with_jump_states(n, descriptor.unknown_inputs))
+        .and_then(|s| s.with_jump_states(state_dim, descriptor.unknown_inputs))
         .map_err(|e| e.to_string())?;
     if let Some(steps) = (descriptor.build_steps)(&p)? {
         supervisor = supervisor.with_steps(steps).map_err(|e| e.to_string())?;
     }
+    Ok(supervisor)
+}
+
+/// The estimation of an instance with these parameter values from `start_time`:
+/// the filter, its twin for reads, the grid and the input timing.
+/// `controls`: those standing at the start.
+pub(crate) fn build_estimation(
+    descriptor: &Descriptor,
+    values: &[f64],
+    start_time: f64,
+    controls: &[f64],
+) -> Result<Estimation, String> {
+    let p = Parameters::new(&descriptor.variables, values);
+    let timing = InputTiming::from_value(p.get("input_timing")?)?;
+    let sample_time = p.positive("sample_time")?;
+    let filter = build_filter(descriptor, values, start_time)?;
+    let n = filter.state_dim();
+    let supervisor = build_supervisor(descriptor, values, n)?;
     let reader = build_filter(descriptor, values, start_time)?;
     if filter.snapshot().input.len() != controls.len() {
         return Err(format!(

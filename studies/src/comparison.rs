@@ -241,8 +241,8 @@ mod tests {
         estimate.time.drain(..10);
         estimate.signals[0].values.drain(..10);
         baseline.metadata.insert(PIPELINE.into(), "the plain mean".into());
-        let compared = compare_case(&runs, &[baseline], &Options::default(), &dir.join("case"), Some(FilterKind::SrCkf))
-            .unwrap();
+        let compared =
+            compare_case(&runs, &[baseline], &Options::default(), &dir.join("case"), Some(FilterKind::SrCkf)).unwrap();
         assert_eq!(compared.comparison.labels, ["CKF", "SRCKF"], "the figures are the runs'");
         assert_eq!(compared.shown, ["SRCKF", "raw average"], "the default stands in, then the baseline");
         assert!(compared.recording.exists());

@@ -1,15 +1,15 @@
 //! An estimator FMU's filter as a [`FilterFactory`]: the FMU's own table
 //! (`kalfmu_fmu::estimators`), its parameter values (the start values, then what the log
-//! says was set, then the user's), and the parameters to fit. A filter is built exactly
-//! as `fmu/src/instance.rs` builds it at `fmi2ExitInitializationMode`: the kind from
-//! `filter`, `Q` and `R` from `Descriptor::build_noise` over `sample_time`, the filter
-//! from `Descriptor::build_filter` with the UKF's α, β, κ, its belief moved to the start
-//! time. The supervisor (gate, fault flags) is left out: the likelihood caps gross errors
-//! itself (`likelihood.rs`).
+//! says was set, then the user's), and the parameters to fit. A filter is built by the
+//! FMU's own code, as an instance builds it at `fmi2ExitInitializationMode`
+//! (`kalfmu_fmu::instance::build_filter`). The supervisor (gate, fault flags) is left out
+//! of the fit: the likelihood caps gross errors itself (`likelihood.rs`); the smoothed log
+//! runs the whole loop ([`FmuEstimator::supervised`]).
 
-use estimator::{FilterKind, StateEstimator, UnscentedParams};
+use estimator::{FilterKind, StateEstimator, SupervisedFilter};
 use kalfmu_fmu::estimators::{self, Descriptor, FILTER_KIND};
-use kalfmu_fmu::variables::{Causality, Kind, Parameters, Variability};
+use kalfmu_fmu::instance;
+use kalfmu_fmu::variables::{Causality, Kind, Variability};
 
 use crate::likelihood::FilterFactory;
 
@@ -175,6 +175,28 @@ impl FmuEstimator {
         values
     }
 
+    /// The FMU's whole estimation loop with the fitted parameters at `fitted`: its filter
+    /// behind its supervisor (gate, fault flags, jumps, adaptation), as an instance runs
+    /// it, the belief at `start_time`.
+    pub fn supervised(&self, fitted: &[f64], start_time: f64) -> Result<SupervisedFilter, String> {
+        let values = self.values_with(fitted);
+        let filter = instance::build_filter(&self.descriptor, &values, start_time)?;
+        let supervisor = instance::build_supervisor(&self.descriptor, &values, filter.state_dim())?;
+        SupervisedFilter::new(filter, supervisor).map_err(|e| e.to_string())
+    }
+
+    /// Every parameter's name and value with the fitted ones at `fitted`.
+    pub fn parameters_with(&self, fitted: &[f64]) -> Vec<(String, f64)> {
+        let values = self.values_with(fitted);
+        self.descriptor
+            .variables
+            .iter()
+            .zip(values)
+            .filter(|(v, _)| v.causality == Causality::Parameter)
+            .map(|(v, value)| (v.name.to_string(), value))
+            .collect()
+    }
+
     /// Checks what the fit relies on: the input timing is the FMU's default (an input set
     /// at `t` is the measurement of `t`, as the log's time stamps say), and a filter can
     /// be built at the start values.
@@ -194,19 +216,7 @@ impl FilterFactory for FmuEstimator {
     }
 
     fn build(&self, fitted: &[f64], start_time: f64) -> Result<Box<dyn StateEstimator>, String> {
-        let values = self.values_with(fitted);
-        let p = Parameters::new(&self.descriptor.variables, &values);
-        // As `instance::build_filter`: the kind, Q and R over one sample time, the filter.
-        let kind = estimators::filter_kind(p.get("filter")?)?;
-        let sample_time = p.positive("sample_time")?;
-        let ukf = UnscentedParams { alpha: p.get("ukf_alpha")?, beta: p.get("ukf_beta")?, kappa: p.get("ukf_kappa")? };
-        let noise = (self.descriptor.build_noise)(&p, sample_time)?;
-        let mut filter = (self.descriptor.build_filter)(&p, kind, ukf, noise)?;
-        // Move the belief to the start time without touching its numbers.
-        let mut at_start = filter.snapshot();
-        at_start.time = start_time;
-        filter.restore(&at_start).map_err(|e| e.to_string())?;
-        Ok(filter)
+        instance::build_filter(&self.descriptor, &self.values_with(fitted), start_time)
     }
 
     fn sample_time(&self) -> f64 {

@@ -28,6 +28,7 @@ pub mod log_input;
 pub mod optimise;
 pub mod record;
 pub mod report;
+pub mod smoothed_log;
 
 pub use fit::{fit, Fit, FitOptions};
 pub use fmu_estimator::FmuEstimator;

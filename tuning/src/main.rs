@@ -1,7 +1,8 @@
 //! `kalfmu-tune`: fits an estimator FMU's noise parameters to recorded logs of its
 //! measurements by maximum likelihood, prints the estimates with their 95 % intervals and
 //! the fitted filter's consistency, and writes them as FMU start values (SSV) and as
-//! `--set NAME=VALUE` lines. `docs/tuning.md` is its manual.
+//! `--set NAME=VALUE` lines, and on request each log with the tuned estimator's filtered
+//! and whole-log smoothed estimates (`--smoothed-log`). `docs/tuning.md` is its manual.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,7 +14,7 @@ use log_format::read::Run;
 use rayon::prelude::*;
 use tuning::likelihood::RobustCap;
 use tuning::optimise::SearchOptions;
-use tuning::{fit, log_input, report, ssv, FitOptions, FmuEstimator, Likelihood, Shard};
+use tuning::{fit, log_input, report, smoothed_log, ssv, FitOptions, FmuEstimator, Likelihood, Shard};
 
 /// Fit an estimator FMU's noise parameters to recorded logs (tuning from data).
 #[derive(Parser, Debug)]
@@ -50,6 +51,12 @@ struct Cli {
     /// Write the estimates as FMU start values to this SSV file ({log} is the log's name).
     #[arg(long, value_name = "OUT.ssv")]
     ssv: Option<PathBuf>,
+    /// Run the FMU's whole loop (gate, faults, adaptation) with the fitted values (with
+    /// --evaluate: the start values) over each log and write it with the filtered
+    /// estimates on /estimate and the estimates given the whole log (fixed-interval
+    /// smoothing) on /smoothed, to this MCAP file ({log} is the log's name).
+    #[arg(long, value_name = "OUT.mcap")]
+    smoothed_log: Option<PathBuf>,
     /// The robust cap on a row's normalised innovation (inf: none).
     #[arg(long, default_value_t = RobustCap::DEFAULT.threshold)]
     cap: f64,
@@ -118,6 +125,11 @@ fn main() -> anyhow::Result<()> {
             if !out.to_string_lossy().contains("{log}") {
                 bail!("--per-log with several logs: put {{log}} in the --ssv path, e.g. tuned_{{log}}.ssv");
             }
+        }
+    }
+    if let Some(out) = &cli.smoothed_log {
+        if logs.len() > 1 && !out.to_string_lossy().contains("{log}") {
+            bail!("several logs: put {{log}} in the --smoothed-log path, e.g. smoothed_{{log}}.mcap");
         }
     }
     // Several groups run in parallel, one per task; each prints when all are done, in order.
@@ -243,6 +255,7 @@ fn tune(cli: &Cli, identifier: &str, logs: &[&Log]) -> anyhow::Result<String> {
         if let Some(why) = e.failure {
             out.push_str(&format!("the filter failed: {why}\n"));
         }
+        write_smoothed_logs(cli, &estimator, &start, logs, &mut out)?;
         return Ok(out);
     }
     let found = fit(&likelihood, &start, &options).map_err(anyhow::Error::msg)?;
@@ -260,5 +273,38 @@ fn tune(cli: &Cli, identifier: &str, logs: &[&Log]) -> anyhow::Result<String> {
         ssv::write(&path, &set).map_err(anyhow::Error::msg)?;
         out.push_str(&format!("wrote {}\n", path.display()));
     }
+    let fitted: Vec<f64> = found.intervals.iter().map(|i| i.estimate).collect();
+    write_smoothed_logs(cli, &estimator, &fitted, logs, &mut out)?;
     Ok(out)
+}
+
+/// With `--smoothed-log`: each log run through the FMU's whole loop at `fitted`, written
+/// with its filtered and smoothed estimates (`tuning::smoothed_log`).
+fn write_smoothed_logs(
+    cli: &Cli,
+    estimator: &FmuEstimator,
+    fitted: &[f64],
+    logs: &[&Log],
+    out: &mut String,
+) -> anyhow::Result<()> {
+    let Some(template) = &cli.smoothed_log else { return Ok(()) };
+    for log in logs {
+        let path = PathBuf::from(template.to_string_lossy().replace("{log}", &stem(&log.path)));
+        let mut record = log_input::record(&log.run, estimator.descriptor()).map_err(anyhow::Error::msg)?;
+        if let Some(seconds) = cli.seconds {
+            record = record.leading(seconds);
+        }
+        let written = smoothed_log::write(&log.run, &record, estimator, fitted, &path)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", log.path.display()))?;
+        out.push_str(&format!(
+            "wrote {}: {} samples of {} with its filtered (/estimate) and whole-log smoothed (/smoothed) estimates; \
+             the gate rejected {} rows, {} were missing\n",
+            path.display(),
+            written.samples,
+            log.path.display(),
+            written.rejected_rows,
+            written.missing_rows
+        ));
+    }
+    Ok(())
 }
