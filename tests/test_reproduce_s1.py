@@ -270,3 +270,17 @@ def test_the_tuning_command_writes_a_log_with_its_whole_log_smoothed_estimates(r
     (filtered_load,) = [p for p in filtered["pairs"] if p["truth"] == "F"]
     (smoothed_load,) = [p for p in smoothed["pairs"] if p["truth"] == "F"]
     assert smoothed_load["rmse"] < 0.9 * filtered_load["rmse"]
+
+
+def test_the_smoothing_lag_is_reproduces_own(kalfmu_bin, fmu_dir, tmp_path):
+    """The smoothed figures are printed for the lag reproduce sets: a --set of it is
+    refused before any run, naming it, rather than printed under the wrong lag."""
+    proc = subprocess.run(
+        [str(kalfmu_bin), "reproduce", "--study", "s1", "--quick", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path),
+         "--set", "smoothing_lag=0.2"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode != 0
+    assert "smoothing_lag = 0.2" in proc.stderr and "0.1 s" in proc.stderr, proc.stderr
+    assert not (tmp_path / "s1").exists(), "nothing ran"

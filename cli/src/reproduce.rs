@@ -168,6 +168,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if !start_values.is_empty() && wanted == "all" {
         bail!("--set and --values give one FMU's parameters: name its study with --study");
     }
+    if let Some(lag) = start_values.get("smoothing_lag") {
+        bail!(
+            "smoothing_lag = {lag}: reproduce sets it ({} s) and prints the smoothed figures of that lag; run the FMU \
+             with another lag through your own master",
+            studies::smoothed::SMOOTHING_LAG
+        );
+    }
     let mut failures = 0;
     for id in STUDIES {
         if wanted != "all" && wanted != id {
