@@ -132,6 +132,9 @@ pub fn run(
     let mut check = [0];
     instance.read_integers(&[fmu.vr("input_timing_check")?], &mut check)?;
     instance.terminate()?;
+    if let Some(lagged) = lagged.as_mut() {
+        lagged.flush(&mut w)?;
+    }
     w.finish()?;
     if check[0] == 2 {
         bail!("{study} {case} {filter}: the FMU's input_timing_check says this master's ordering fits the other input_timing");
@@ -145,8 +148,10 @@ struct Lagged {
     /// `<name>_smoothed` and `<name>_smoothed_std` of each name, then `smoothed_time`.
     vrs: Vec<u32>,
     values: Vec<f64>,
-    /// The last time logged: the smoothed time stands at the start until the lag has passed.
-    last: f64,
+    /// The latest values read of the newest smoothed time, not yet logged (the smoothed
+    /// time then last entry): until the lag has passed the smoothed time stands at the
+    /// start, and each read smooths it with more measurements; its last read is logged.
+    pending: Option<Vec<f64>>,
 }
 
 impl Lagged {
@@ -174,16 +179,29 @@ impl Lagged {
         }
         vrs.push(fmu.vr("smoothed_time")?);
         let channel = w.add_channel(SMOOTHED, &specs)?;
-        Ok(Some(Self { channel, values: vec![0.0; vrs.len()], vrs, last: f64::NEG_INFINITY }))
+        Ok(Some(Self { channel, values: vec![0.0; vrs.len()], vrs, pending: None }))
     }
 
-    /// Logs the smoothed outputs as read now, once per smoothed time.
+    /// Reads the smoothed outputs; logs those of the smoothed time before when the
+    /// smoothed time has moved on: each smoothed time once, as last read.
     fn log(&mut self, instance: &mut Instance, w: &mut LogWriter) -> anyhow::Result<()> {
         instance.read(&self.vrs, &mut self.values)?;
-        let (time, values) = self.values.split_last().expect("smoothed_time is read");
-        if *time > self.last {
+        let time = self.values[self.values.len() - 1];
+        match &mut self.pending {
+            Some(pending) if pending[pending.len() - 1] == time => pending.copy_from_slice(&self.values),
+            _ => {
+                self.flush(w)?;
+                self.pending = Some(self.values.clone());
+            }
+        }
+        Ok(())
+    }
+
+    /// Logs the values of the newest smoothed time (at the end of the run).
+    fn flush(&mut self, w: &mut LogWriter) -> anyhow::Result<()> {
+        if let Some(pending) = self.pending.take() {
+            let (time, values) = pending.split_last().expect("smoothed_time is read");
             w.write(self.channel, *time, values)?;
-            self.last = *time;
         }
         Ok(())
     }
