@@ -38,12 +38,53 @@ fn assert_block_equals_pointwise<M: Process + Observation>(mut model: M, what: &
 }
 
 #[test]
-fn the_wheel_rail_model_s_block_rk4_equals_its_point_rk4_bit_for_bit() {
-    // The S2 model has only point laws: the default block methods call them point by point,
-    // inside the lane-by-lane RK4 of `Discretized`.
+fn the_s2_model_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
     let model = WheelRailVertical { vehicle: VerticalVehicle::zhai_passenger() };
     assert_block_equals_pointwise(Discretized::rk4(model, 1), "wheel-rail, 1 RK4 step");
     assert_block_equals_pointwise(Discretized::rk4(model, 3), "wheel-rail, 3 RK4 steps");
+}
+
+/// Eq. (7) of S2 point by point, force by force, as the model was first written: the
+/// reference its lane-by-lane law must reproduce to the bit.
+fn s2_accelerations_by_forces(vehicle: &VerticalVehicle, z: &[f64], v: &[f64], f_n: &[f64]) -> [f64; 10] {
+    let (lc, lt) = (vehicle.half_bogie_spacing, vehicle.half_wheelbase);
+    let mut f_s = [0.0; 2];
+    let mut f_p = [0.0; 4];
+    for (i, d) in [lc, -lc].into_iter().enumerate() {
+        f_s[i] = vehicle.secondary_stiffness * (z[2 + i] - z[0] - d * z[1])
+            + vehicle.secondary_damping * (v[2 + i] - v[0] - d * v[1]);
+        for (k, e) in [lt, -lt].into_iter().enumerate() {
+            let j = 2 * i + k;
+            f_p[j] = vehicle.primary_stiffness * (z[6 + j] - z[2 + i] - e * z[4 + i])
+                + vehicle.primary_damper.force(v[6 + j] - v[2 + i] - e * v[4 + i]);
+        }
+    }
+    let mut a = [0.0; 10];
+    a[0] = (f_s[0] + f_s[1]) / vehicle.car_body_mass;
+    a[1] = (f_s[0] - f_s[1]) * lc / vehicle.car_body_pitch_inertia;
+    for i in 0..2 {
+        a[2 + i] = (f_p[2 * i] + f_p[2 * i + 1] - f_s[i]) / vehicle.bogie_mass;
+        a[4 + i] = (f_p[2 * i] - f_p[2 * i + 1]) * lt / vehicle.bogie_pitch_inertia;
+    }
+    for j in 0..4 {
+        a[6 + j] = (-f_p[j] - vehicle.static_wheel_load + f_n[j]) / vehicle.wheelset_mass;
+    }
+    a
+}
+
+#[test]
+fn the_s2_model_s_lane_law_is_its_equations_force_by_force_bit_for_bit() {
+    let vehicle = VerticalVehicle::zhai_passenger();
+    for seed in 0..50 {
+        let x = point(&block(24, 1000 + seed), (seed % 8) as usize);
+        let forces: Vec<f64> = x[20..24].iter().map(|f| 8e4 * f).collect();
+        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&vehicle.accelerations(&x[..10], &x[10..20], &forces)),
+            bits(&s2_accelerations_by_forces(&vehicle, &x[..10], &x[10..20], &forces)),
+            "seed {seed}"
+        );
+    }
 }
 
 #[test]

@@ -19,7 +19,7 @@
 //! State (24): `[z_c, β_c, z_t1, z_t2, β_t1, β_t2, z_w1..4, their 10 velocities, F_N1..4]`;
 //! measurements (7): `[z̈_c, z̈_t1, z̈_t2, z̈_w1..4]` (m/s², up).
 
-use crate::model::{Observation, VectorField};
+use crate::model::{Component, Observation, VectorField};
 use crate::models::PiecewiseLinear;
 
 /// The vehicle as the estimator knows it: the half on one rail.
@@ -94,30 +94,53 @@ impl VerticalVehicle {
     /// The accelerations of the ten coordinates, in state order, for positions `z`,
     /// velocities `v` and the wheel–rail forces `f_n`.
     pub fn accelerations(&self, z: &[f64], v: &[f64], f_n: &[f64]) -> [f64; 10] {
+        self.accelerations_lanes::<1>(z.as_chunks().0, v.as_chunks().0, f_n.as_chunks().0).map(|[a]| a)
+    }
+
+    /// [`accelerations`](Self::accelerations) lane by lane (`L = 1`: one point; a block of
+    /// points), without branches, so that the compiler vectorises it across the points;
+    /// the same operations in the same order in every lane.
+    #[inline(always)]
+    pub fn accelerations_lanes<const L: usize>(
+        &self,
+        z: &[[f64; L]],
+        v: &[[f64; L]],
+        f_n: &[[f64; L]],
+    ) -> [[f64; L]; 10] {
         let (lc, lt) = (self.half_bogie_spacing, self.half_wheelbase);
         // Bogie i at d_i = ±l_c; in the state z_c is 0, β_c 1, z_ti 2 + i, β_ti 4 + i.
-        let mut f_s = [0.0; 2];
-        let mut f_p = [0.0; 4];
+        let mut f_s = [[0.0; L]; 2];
+        let mut f_p = [[0.0; L]; 4];
         for (i, d) in [lc, -lc].into_iter().enumerate() {
-            let stretch = z[2 + i] - z[0] - d * z[1];
-            let rate = v[2 + i] - v[0] - d * v[1];
-            f_s[i] = self.secondary_stiffness * stretch + self.secondary_damping * rate;
+            for l in 0..L {
+                let stretch = z[2 + i][l] - z[0][l] - d * z[1][l];
+                let rate = v[2 + i][l] - v[0][l] - d * v[1][l];
+                f_s[i][l] = self.secondary_stiffness * stretch + self.secondary_damping * rate;
+            }
             for (k, e) in [lt, -lt].into_iter().enumerate() {
                 let j = 2 * i + k;
-                let stretch = z[6 + j] - z[2 + i] - e * z[4 + i];
-                let rate = v[6 + j] - v[2 + i] - e * v[4 + i];
-                f_p[j] = self.primary_stiffness * stretch + self.primary_damper.force(rate);
+                let mut rate = [0.0; L];
+                for l in 0..L {
+                    rate[l] = v[6 + j][l] - v[2 + i][l] - e * v[4 + i][l];
+                }
+                let damper = self.primary_damper.force_lanes(&rate);
+                for l in 0..L {
+                    let stretch = z[6 + j][l] - z[2 + i][l] - e * z[4 + i][l];
+                    f_p[j][l] = self.primary_stiffness * stretch + damper[l];
+                }
             }
         }
-        let mut a = [0.0; 10];
-        a[0] = (f_s[0] + f_s[1]) / self.car_body_mass;
-        a[1] = (f_s[0] - f_s[1]) * lc / self.car_body_pitch_inertia;
-        for i in 0..2 {
-            a[2 + i] = (f_p[2 * i] + f_p[2 * i + 1] - f_s[i]) / self.bogie_mass;
-            a[4 + i] = (f_p[2 * i] - f_p[2 * i + 1]) * lt / self.bogie_pitch_inertia;
-        }
-        for j in 0..4 {
-            a[6 + j] = (-f_p[j] - self.static_wheel_load + f_n[j]) / self.wheelset_mass;
+        let mut a = [[0.0; L]; 10];
+        for l in 0..L {
+            a[0][l] = (f_s[0][l] + f_s[1][l]) / self.car_body_mass;
+            a[1][l] = (f_s[0][l] - f_s[1][l]) * lc / self.car_body_pitch_inertia;
+            for i in 0..2 {
+                a[2 + i][l] = (f_p[2 * i][l] + f_p[2 * i + 1][l] - f_s[i][l]) / self.bogie_mass;
+                a[4 + i][l] = (f_p[2 * i][l] - f_p[2 * i + 1][l]) * lt / self.bogie_pitch_inertia;
+            }
+            for j in 0..4 {
+                a[6 + j][l] = (-f_p[j][l] - self.static_wheel_load + f_n[j][l]) / self.wheelset_mass;
+            }
         }
         a
     }
@@ -169,16 +192,38 @@ impl WheelRailVertical {
     const MEASURED: [usize; 7] = [0, 2, 3, 6, 7, 8, 9];
 }
 
+impl WheelRailVertical {
+    /// `ẋ` lane by lane: `L = 1` for one point, or a block of points.
+    #[inline(always)]
+    fn derivative_lanes<const L: usize>(&self, x: &[[f64; L]], dxdt: &mut [[f64; L]]) {
+        let a = self.vehicle.accelerations_lanes(&x[..10], &x[10..20], &x[20..24]);
+        dxdt[..10].copy_from_slice(&x[10..20]);
+        dxdt[10..20].copy_from_slice(&a);
+        dxdt[20..24].fill([0.0; L]);
+    }
+
+    /// The seven measured accelerations lane by lane.
+    #[inline(always)]
+    fn observe_lanes<const L: usize>(&self, x: &[[f64; L]], z: &mut [[f64; L]]) {
+        let a = self.vehicle.accelerations_lanes(&x[..10], &x[10..20], &x[20..24]);
+        for (zi, k) in z.iter_mut().zip(Self::MEASURED) {
+            *zi = a[k];
+        }
+    }
+}
+
 impl VectorField for WheelRailVertical {
     fn state_dim(&self) -> usize {
         24
     }
 
     fn derivative(&self, _t: f64, x: &[f64], _u: &[f64], dxdt: &mut [f64]) {
-        let a = self.vehicle.accelerations(&x[..10], &x[10..20], &x[20..24]);
-        dxdt[..10].copy_from_slice(&x[10..20]);
-        dxdt[10..20].copy_from_slice(&a);
-        dxdt[20..24].fill(0.0);
+        self.derivative_lanes::<1>(x.as_chunks().0, dxdt.as_chunks_mut().0);
+    }
+
+    #[inline(always)]
+    fn derivative_block(&self, _t: f64, x: &[Component], _u: &[f64], dxdt: &mut [Component], _scratch: &mut [f64]) {
+        self.derivative_lanes(x, dxdt);
     }
 }
 
@@ -188,9 +233,11 @@ impl Observation for WheelRailVertical {
     }
 
     fn observe(&self, _t: f64, x: &[f64], _u: &[f64], z: &mut [f64]) {
-        let a = self.vehicle.accelerations(&x[..10], &x[10..20], &x[20..24]);
-        for (zi, k) in z.iter_mut().zip(Self::MEASURED) {
-            *zi = a[k];
-        }
+        self.observe_lanes::<1>(x.as_chunks().0, z.as_chunks_mut().0);
+    }
+
+    #[inline(always)]
+    fn observe_block(&self, _t: f64, x: &[Component], _u: &[f64], z: &mut [Component], _scratch: &mut [f64]) {
+        self.observe_lanes(x, z);
     }
 }
