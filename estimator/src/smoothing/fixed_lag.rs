@@ -155,9 +155,9 @@ impl FixedLagSmoother {
             for k in 0..self.len {
                 let slot = (self.head + k) % self.capacity;
                 self.step.advance(
-                    &mut self.rows[slot * np..(slot + 1) * np],
-                    &mut self.means[slot * p..(slot + 1) * p],
-                    &mut self.variances[slot * p..(slot + 1) * p],
+                    &mut self.rows[slot_range(slot, np)],
+                    &mut self.means[slot_range(slot, p)],
+                    &mut self.variances[slot_range(slot, p)],
                 )?;
             }
             Ok(())
@@ -182,8 +182,8 @@ impl FixedLagSmoother {
             let slot = self.head;
             LaggedEstimate {
                 time: self.times[slot],
-                means: &self.means[slot * p..(slot + 1) * p],
-                variances: &self.variances[slot * p..(slot + 1) * p],
+                means: &self.means[slot_range(slot, p)],
+                variances: &self.variances[slot_range(slot, p)],
             }
         })
     }
@@ -204,9 +204,9 @@ impl FixedLagSmoother {
         let index = usize::from(self.len == self.capacity);
         let slot = (self.head + index) % self.capacity;
         let (p, np) = (self.states.len(), self.n * self.states.len());
-        self.scratch_rows.copy_from_slice(&self.rows[slot * np..(slot + 1) * np]);
-        self.scratch_means.copy_from_slice(&self.means[slot * p..(slot + 1) * p]);
-        self.scratch_variances.copy_from_slice(&self.variances[slot * p..(slot + 1) * p]);
+        self.scratch_rows.copy_from_slice(&self.rows[slot_range(slot, np)]);
+        self.scratch_means.copy_from_slice(&self.means[slot_range(slot, p)]);
+        self.scratch_variances.copy_from_slice(&self.variances[slot_range(slot, p)]);
         if self.step.advance(&mut self.scratch_rows, &mut self.scratch_means, &mut self.scratch_variances).is_err() {
             return self.own_estimate(time, mean, covariance);
         }
@@ -232,9 +232,9 @@ impl FixedLagSmoother {
         for k in 0..self.len {
             let slot = (self.head + k) % self.capacity;
             out.push(self.times[slot]);
-            out.extend_from_slice(&self.means[slot * p..(slot + 1) * p]);
-            out.extend_from_slice(&self.variances[slot * p..(slot + 1) * p]);
-            out.extend_from_slice(&self.rows[slot * np..(slot + 1) * np]);
+            out.extend_from_slice(&self.means[slot_range(slot, p)]);
+            out.extend_from_slice(&self.variances[slot_range(slot, p)]);
+            out.extend_from_slice(&self.rows[slot_range(slot, np)]);
         }
     }
 
@@ -257,9 +257,9 @@ impl FixedLagSmoother {
         let np = self.n * p;
         for (slot, instant) in body.chunks_exact(per).enumerate() {
             self.times[slot] = instant[0];
-            self.means[slot * p..(slot + 1) * p].copy_from_slice(&instant[1..1 + p]);
-            self.variances[slot * p..(slot + 1) * p].copy_from_slice(&instant[1 + p..1 + 2 * p]);
-            self.rows[slot * np..(slot + 1) * np].copy_from_slice(&instant[1 + 2 * p..]);
+            self.means[slot_range(slot, p)].copy_from_slice(&instant[1..1 + p]);
+            self.variances[slot_range(slot, p)].copy_from_slice(&instant[1 + p..1 + 2 * p]);
+            self.rows[slot_range(slot, np)].copy_from_slice(&instant[1 + 2 * p..]);
         }
         (self.head, self.len) = (0, count);
         Ok(used)
@@ -271,7 +271,7 @@ impl FixedLagSmoother {
         self.len += 1;
         self.times[slot] = time;
         let (n, p) = (self.n, self.states.len());
-        let rows = &mut self.rows[slot * n * p..(slot + 1) * n * p];
+        let rows = &mut self.rows[slot_range(slot, n * p)];
         rows.fill(0.0);
         for (a, &s) in self.states.iter().enumerate() {
             self.means[slot * p + a] = mean[s];
@@ -363,4 +363,10 @@ impl StepTerms {
         }
         Ok(())
     }
+}
+
+/// The entries of ring slot `slot` in a buffer of `width` entries per slot.
+#[inline(always)]
+fn slot_range(slot: usize, width: usize) -> std::ops::Range<usize> {
+    slot * width..(slot + 1) * width
 }
