@@ -23,7 +23,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
 use crate::gaussian::Gaussian;
-use crate::linalg::{cholesky_in_place, dot, mul_to, solve_lower};
+use crate::linalg::{cholesky_in_place, dot, solve_lower, Lanes};
 
 /// What a smoother needs of one prediction of a filter from `t` to `t'`: the
 /// link between the two instants and the Gaussian the update at `t'` started from.
@@ -348,13 +348,32 @@ impl StepTerms {
     }
 
     /// One instant over the step: each row `b` of its `B` becomes `Gᵀ·b` (a
-    /// row of `B·G`), its mean gains `b·Δm` and its variance `b·ΔP·b`.
+    /// row of `B·G`), its mean gains `b·Δm` and its variance `b·ΔP·b`; with
+    /// AVX2 and FMA where the filters use them (`linalg::with_avx2!`), so a
+    /// read before a step is final and the step itself take the same kernels.
     fn advance(&mut self, rows: &mut [f64], means: &mut [f64], variances: &mut [f64]) -> Result<(), FilterError> {
+        crate::linalg::with_avx2!(fn<>(lanes, terms: &mut StepTerms = self, rows: &mut [f64] = rows, means: &mut [f64] = means, variances: &mut [f64] = variances) -> Result<(), FilterError> {
+            terms.advance_with(lanes, rows, means, variances)
+        })
+    }
+
+    /// [`Self::advance`] on `lanes`: the two products are combinations of the
+    /// columns of `Gᵀ` and of `ΔP` by the row ([`Lanes::combine`]).
+    #[inline(always)]
+    fn advance_with<L: Lanes>(
+        &mut self,
+        lanes: L,
+        rows: &mut [f64],
+        means: &mut [f64],
+        variances: &mut [f64],
+    ) -> Result<(), FilterError> {
         let n = self.gain_t.nrows();
         for (a, row) in rows.chunks_exact_mut(n).enumerate() {
-            mul_to(self.gain_t.as_slice(), n, n, n, row, n, 1, self.advanced.as_mut_slice(), n);
+            self.advanced.fill(0.0);
+            lanes.combine(self.advanced.as_mut_slice(), row, self.gain_t.as_slice(), n);
             row.copy_from_slice(self.advanced.as_slice());
-            mul_to(self.delta_covariance.as_slice(), n, n, n, row, n, 1, self.spread.as_mut_slice(), n);
+            self.spread.fill(0.0);
+            lanes.combine(self.spread.as_mut_slice(), row, self.delta_covariance.as_slice(), n);
             means[a] += dot(row, self.delta_mean.as_slice());
             variances[a] += dot(row, self.spread.as_slice());
             if !(means[a].is_finite() && variances[a].is_finite()) {
