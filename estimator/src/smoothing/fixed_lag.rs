@@ -352,7 +352,13 @@ impl StepTerms {
     /// AVX2 and FMA where the filters use them (`linalg::with_avx2!`), so a
     /// read before a step is final and the step itself take the same kernels.
     fn advance(&mut self, rows: &mut [f64], means: &mut [f64], variances: &mut [f64]) -> Result<(), FilterError> {
-        crate::linalg::with_avx2!(fn<>(lanes, terms: &mut StepTerms = self, rows: &mut [f64] = rows, means: &mut [f64] = means, variances: &mut [f64] = variances) -> Result<(), FilterError> {
+        crate::linalg::with_avx2!(fn<>(
+            lanes,
+            terms: &mut StepTerms = self,
+            rows: &mut [f64] = rows,
+            means: &mut [f64] = means,
+            variances: &mut [f64] = variances
+        ) -> Result<(), FilterError> {
             terms.advance_with(lanes, rows, means, variances)
         })
     }
