@@ -20,7 +20,7 @@ use serde::Serialize;
 use crate::report::{analyse, Options, PairReport, Report};
 
 /// The metadata keys that say which case a run is.
-const CASE_KEYS: [&str; 3] = ["study", "case", "seed"];
+pub const CASE_KEYS: [&str; 3] = ["study", "case", "seed"];
 
 /// Which value of a metric is best.
 #[derive(Debug, Clone, Copy, PartialEq)]

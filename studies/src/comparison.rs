@@ -165,8 +165,13 @@ pub fn largest_difference<const N: usize>(a: &[[f64; N]], b: &[[f64; N]]) -> any
 
 /// The log of one filter's run of a case: `<stem>_<filter>.mcap`, e.g. `weld_srckf.mcap`.
 pub fn log_path(stem: &Path, kind: estimator::FilterKind) -> PathBuf {
+    case_log_path(stem, &kind.name().to_lowercase().replace('-', ""))
+}
+
+/// A log of the case `stem` beside its filters' logs: `<stem>_<suffix>.mcap`.
+pub fn case_log_path(stem: &Path, suffix: &str) -> PathBuf {
     let case = stem.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    stem.with_file_name(format!("{case}_{}.mcap", kind.name().to_lowercase().replace('-', "")))
+    stem.with_file_name(format!("{case}_{suffix}.mcap"))
 }
 
 /// The name of the file in each study's output directory that holds the figures of the

@@ -161,7 +161,7 @@ pub fn evaluate(filter: &mut dyn StateEstimator, record: &Record, sample_time: f
     let mut grid = 0_u64;
     for k in 0..record.len() {
         let t = record.times()[k];
-        let target = ((t - start) / sample_time).round() as u64;
+        let target = record.grid_index(k, sample_time);
         while grid < target {
             if let Err(e) = filter.predict(&held, sample_time) {
                 return sum.failed(format!(

@@ -14,7 +14,7 @@ use log_format::read::Run;
 use rayon::prelude::*;
 use tuning::likelihood::RobustCap;
 use tuning::optimise::SearchOptions;
-use tuning::{fit, log_input, report, smoothed_log, ssv, FitOptions, FmuEstimator, Likelihood, Shard};
+use tuning::{fit, log_input, report, smoothed_log, ssv, FitOptions, FmuEstimator, Likelihood, Record, Shard};
 
 /// Fit an estimator FMU's noise parameters to recorded logs (tuning from data).
 #[derive(Parser, Debug)]
@@ -255,7 +255,7 @@ fn tune(cli: &Cli, identifier: &str, logs: &[&Log]) -> anyhow::Result<String> {
         if let Some(why) = e.failure {
             out.push_str(&format!("the filter failed: {why}\n"));
         }
-        write_smoothed_logs(cli, &estimator, &start, logs, &mut out)?;
+        write_smoothed_logs(cli, &estimator, &start, logs, likelihood.records(), &mut out)?;
         return Ok(out);
     }
     let found = fit(&likelihood, &start, &options).map_err(anyhow::Error::msg)?;
@@ -274,27 +274,25 @@ fn tune(cli: &Cli, identifier: &str, logs: &[&Log]) -> anyhow::Result<String> {
         out.push_str(&format!("wrote {}\n", path.display()));
     }
     let fitted: Vec<f64> = found.intervals.iter().map(|i| i.estimate).collect();
-    write_smoothed_logs(cli, &estimator, &fitted, logs, &mut out)?;
+    write_smoothed_logs(cli, &estimator, &fitted, logs, likelihood.records(), &mut out)?;
     Ok(out)
 }
 
 /// With `--smoothed-log`: each log run through the FMU's whole loop at `fitted`, written
-/// with its filtered and smoothed estimates (`tuning::smoothed_log`).
+/// with its filtered and smoothed estimates (`tuning::smoothed_log`); `records` are the
+/// logs' samples as the fit took them.
 fn write_smoothed_logs(
     cli: &Cli,
     estimator: &FmuEstimator,
     fitted: &[f64],
     logs: &[&Log],
+    records: &[Record],
     out: &mut String,
 ) -> anyhow::Result<()> {
     let Some(template) = &cli.smoothed_log else { return Ok(()) };
-    for log in logs {
+    for (log, record) in logs.iter().zip(records) {
         let path = PathBuf::from(template.to_string_lossy().replace("{log}", &stem(&log.path)));
-        let mut record = log_input::record(&log.run, estimator.descriptor()).map_err(anyhow::Error::msg)?;
-        if let Some(seconds) = cli.seconds {
-            record = record.leading(seconds);
-        }
-        let written = smoothed_log::write(&log.run, &record, estimator, fitted, &path)
+        let written = smoothed_log::write(&log.run, record, estimator, fitted, &path)
             .map_err(|e| anyhow::anyhow!("{}: {e}", log.path.display()))?;
         out.push_str(&format!(
             "wrote {}: {} samples of {} with its filtered (/estimate) and whole-log smoothed (/smoothed) estimates; \

@@ -79,6 +79,12 @@ impl Record {
         &self.controls[k * self.control_dim..(k + 1) * self.control_dim]
     }
 
+    /// The instant of the filter's grid `t₀ + k·sample_time` that sample `k` lies on (the
+    /// nearest; [`Record::check_grid`] checks that it lies on it).
+    pub fn grid_index(&self, k: usize, sample_time: f64) -> u64 {
+        ((self.time[k] - self.time[0]) / sample_time).round() as u64
+    }
+
     /// The time from the first sample to the last (s).
     pub fn duration(&self) -> f64 {
         match (self.time.first(), self.time.last()) {

@@ -68,7 +68,7 @@ pub fn write(
     let (mut grid, mut instants) = (0_u64, 0_usize);
     let failed = |what: &str, t: f64, e: &dyn std::fmt::Display| format!("{what} at t = {t} s failed: {e}");
     for (k, &t) in times.iter().enumerate() {
-        let target = ((t - start) / dt).round() as u64;
+        let target = record.grid_index(k, dt);
         while grid < target {
             supervised.predict(&held, dt).map_err(|e| failed("the prediction", t, &e))?;
             grid += 1;

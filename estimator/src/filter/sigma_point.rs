@@ -309,7 +309,7 @@ fn add_weighted_outer_products<L: Lanes>(
     // A set with a negative weight (the UKF's centre, for a small α) sums terms that
     // cancel: fusing their roundings moves the filter's run far more than rounding (on
     // S2's model by 2e-2 over 1000 steps, `tests/portable.rs`), so it keeps the unfused loop.
-    let fused = (0..count).all(|i| set.covariance_weight(i) >= 0.0);
+    let fused = set.covariance_weights_nonnegative();
     for c in 0..rows_b {
         for (i, w) in coefficients.iter_mut().enumerate() {
             *w = set.covariance_weight(i) * b.as_slice()[i * ldb + c];

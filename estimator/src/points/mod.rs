@@ -68,6 +68,12 @@ impl SigmaPoints {
         }
     }
 
+    /// Whether every covariance weight is ≥ 0 (the unscented centre's is negative for a
+    /// small α).
+    pub fn covariance_weights_nonnegative(&self) -> bool {
+        self.weight >= 0.0 && self.center.is_none_or(|c| c.covariance >= 0.0)
+    }
+
     /// Covariance weight of point `i` (same order as [`Self::mean_weight`]).
     pub fn covariance_weight(&self, i: usize) -> f64 {
         if i < 2 * self.n {

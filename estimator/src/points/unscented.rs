@@ -67,6 +67,16 @@ mod tests {
     }
 
     #[test]
+    fn a_small_alpha_gives_the_centre_a_negative_covariance_weight() {
+        let small = SigmaPoints::unscented(4, UnscentedParams::default()).unwrap();
+        assert!(small.center().unwrap().covariance < 0.0);
+        assert!(!small.covariance_weights_nonnegative());
+        let one = SigmaPoints::unscented(4, UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 }).unwrap();
+        assert!(one.covariance_weights_nonnegative());
+        assert!(SigmaPoints::cubature(4).covariance_weights_nonnegative());
+    }
+
+    #[test]
     fn alpha_one_beta_zero_kappa_zero_is_the_cubature_rule_plus_a_zero_weight_centre() {
         let u = SigmaPoints::unscented(5, UnscentedParams { alpha: 1.0, beta: 0.0, kappa: 0.0 }).unwrap();
         let c = SigmaPoints::cubature(5);

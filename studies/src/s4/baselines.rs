@@ -13,17 +13,18 @@
 //! (`held_telegrams`). The metadata's `pipeline` says what each computes.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Context;
 use log_format::read::{read_log, Channel, Run, Signal};
 use log_format::write::{write_channels, SignalSpec, ESTIMATE, TRUTH};
 
 use super::paper::{run_paper, PaperRun, PaperSettings};
-use crate::comparison::PIPELINE;
+use crate::comparison::{case_log_path, PIPELINE};
+use analyzer::compare::CASE_KEYS;
 use truth::s4::recording::Recording;
 
-/// A baseline: the end of its log's name (`<case>_<suffix>.mcap`), its label (the log's
+/// A baseline: the end of its log's name ([`case_log_path`]), its label (the log's
 /// `filter`), what it is, and its estimates from the paper's run.
 struct Baseline {
     suffix: &'static str,
@@ -73,9 +74,6 @@ const BASELINES: [Baseline; 3] = [
     },
 ];
 
-/// The metadata a baseline's log takes from ours: what names the case.
-const CASE_KEYS: [&str; 3] = ["study", "case", "seed"];
-
 /// Writes the baselines of `recording` beside `ours` (a log of an FMU run of the same
 /// recording, whose truth they share) as `<stem>_<suffix>.mcap`, and returns them read
 /// back, in [`BASELINES`]' order.
@@ -123,17 +121,11 @@ pub fn write(recording: &Recording, ours: &Run, stem: &Path) -> anyhow::Result<V
                 .map(|(spec, values)| Signal { spec, values: values[first..].to_vec() })
                 .collect(),
         };
-        let path = path(stem, baseline.suffix);
+        let path = case_log_path(stem, baseline.suffix);
         write_channels(&path, &metadata, &[truth, &estimate])?;
         runs.push(read_log(&path)?);
     }
     Ok(runs)
-}
-
-/// `<stem>_<suffix>.mcap`, beside the case's FMU logs.
-fn path(stem: &Path, suffix: &str) -> PathBuf {
-    let case = stem.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    stem.with_file_name(format!("{case}_{suffix}.mcap"))
 }
 
 /// `values` with each non-finite value after the first finite one replaced by the last
