@@ -5,7 +5,7 @@
 //! `docs/studies/s5.md`, where each departure from the printed equations is argued.
 
 use super::atmosphere;
-use crate::model::{Observation, VectorField};
+use crate::model::{Component, Observation, VectorField};
 
 /// The airframe: what the estimator knows of the missile besides its force coefficients.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,6 +60,21 @@ pub struct Air {
     pub beta: f64,
 }
 
+/// [`Air`] at the `L` points of a block, one array per quantity.
+struct AirLanes<const L: usize> {
+    speed: [f64; L],
+    dynamic_pressure: [f64; L],
+    alpha: [f64; L],
+    beta: [f64; L],
+}
+
+/// `f` at each lane: the model's laws are written lane by lane, without branches, so that
+/// the compiler vectorises them across a block's points.
+#[inline(always)]
+fn lanes<const L: usize>(f: impl FnMut(usize) -> f64) -> [f64; L] {
+    std::array::from_fn(f)
+}
+
 impl Airframe {
     /// The paper's missile (mass, area, length) with the project's inertias and moment
     /// model (our estimates, `docs/studies/s5.md`).
@@ -85,71 +100,133 @@ impl Airframe {
 
     /// The air seen by a body moving at `velocity` (body axes) at altitude `h`.
     pub fn air(&self, velocity: &[f64], h: f64) -> Air {
-        let [vx, vy, vz] = [velocity[0], velocity[1], velocity[2]];
-        let speed = (vx * vx + vy * vy + vz * vz).sqrt();
-        // At rest the angles are undefined; zero keeps the model finite for any point.
-        let beta = if speed > 0.0 { (vz / speed).clamp(-1.0, 1.0).asin() } else { 0.0 };
-        Air { speed, dynamic_pressure: 0.5 * atmosphere::density(h) * speed * speed, alpha: (-vy).atan2(vx), beta }
+        let air = self.air_lanes(&[[velocity[0]], [velocity[1]], [velocity[2]]], &[h]);
+        Air { speed: air.speed[0], dynamic_pressure: air.dynamic_pressure[0], alpha: air.alpha[0], beta: air.beta[0] }
+    }
+
+    /// [`air`](Self::air) lane by lane. The angles and the atmosphere are transcendental:
+    /// they go one lane at a time through the same functions as a single point.
+    #[inline(always)]
+    fn air_lanes<const L: usize>(&self, velocity: &[[f64; L]], h: &[f64; L]) -> AirLanes<L> {
+        let [vx, vy, vz] = [&velocity[0], &velocity[1], &velocity[2]];
+        let speed = lanes(|p| (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]).sqrt());
+        let (mut alpha, mut beta, mut density) = ([0.0; L], [0.0; L], [0.0; L]);
+        for p in 0..L {
+            alpha[p] = (-vy[p]).atan2(vx[p]);
+            // At rest the sideslip is undefined; zero keeps the model finite for any point.
+            beta[p] = if speed[p] > 0.0 { (vz[p] / speed[p]).clamp(-1.0, 1.0).asin() } else { 0.0 };
+            density[p] = atmosphere::density(h[p]);
+        }
+        AirLanes { speed, dynamic_pressure: lanes(|p| 0.5 * density[p] * speed[p] * speed[p]), alpha, beta }
     }
 
     /// The aerodynamic force (N, body axes) of the coefficients `c` (eq. (4)'s order) at
     /// `air` with deflections `delta` (rad).
     pub fn force(&self, air: &Air, c: &[f64], delta: &[f64]) -> [f64; 3] {
-        let qs = air.dynamic_pressure * self.area;
+        let air = AirLanes {
+            speed: [air.speed],
+            dynamic_pressure: [air.dynamic_pressure],
+            alpha: [air.alpha],
+            beta: [air.beta],
+        };
+        self.force_lanes(&air, c.as_chunks().0, delta).map(|[f]| f)
+    }
+
+    /// [`force`](Self::force) lane by lane.
+    #[inline(always)]
+    fn force_lanes<const L: usize>(&self, air: &AirLanes<L>, c: &[[f64; L]], delta: &[f64]) -> [[f64; L]; 3] {
+        let qs = lanes::<L>(|p| air.dynamic_pressure[p] * self.area);
+        let (alpha, beta) = (&air.alpha, &air.beta);
         [
-            qs * (c[0] + c[1] * air.alpha + c[2] * air.beta + c[3] * delta[0]),
-            qs * (c[4] + c[5] * air.alpha + c[6] * delta[1]),
-            qs * (c[7] + c[8] * air.beta + c[9] * delta[2]),
+            lanes(|p| qs[p] * (c[0][p] + c[1][p] * alpha[p] + c[2][p] * beta[p] + c[3][p] * delta[0])),
+            lanes(|p| qs[p] * (c[4][p] + c[5][p] * alpha[p] + c[6][p] * delta[1])),
+            lanes(|p| qs[p] * (c[7][p] + c[8][p] * beta[p] + c[9][p] * delta[2])),
         ]
     }
 
-    /// The aerodynamic moment (N·m, body axes) at `air` with rates `omega` and `delta`.
-    pub fn moment(&self, air: &Air, omega: &[f64], delta: &[f64]) -> [f64; 3] {
+    /// The aerodynamic moment (N·m, body axes) at `air` with rates `omega` and `delta`,
+    /// lane by lane.
+    #[inline(always)]
+    fn moment_lanes<const L: usize>(&self, air: &AirLanes<L>, omega: &[[f64; L]], delta: &[f64]) -> [[f64; L]; 3] {
         let m = &self.moments;
-        let qsl = air.dynamic_pressure * self.area * self.length;
-        let reduced = if air.speed > 0.0 { self.length / air.speed } else { 0.0 };
+        let qsl = lanes::<L>(|p| air.dynamic_pressure[p] * self.area * self.length);
+        // At rest the rates cannot be made dimensionless; zero drops their damping.
+        let reduced = lanes::<L>(|p| if air.speed[p] > 0.0 { self.length / air.speed[p] } else { 0.0 });
+        let (alpha, beta) = (&air.alpha, &air.beta);
         [
-            qsl * (m.roll_control * delta[0] + m.roll_damping * omega[0] * reduced),
-            qsl * (m.yaw_stiffness * air.beta + m.yaw_control * delta[2] + m.yaw_damping * omega[1] * reduced),
-            qsl * (m.pitch_stiffness * air.alpha + m.pitch_control * delta[1] + m.pitch_damping * omega[2] * reduced),
+            lanes(|p| qsl[p] * (m.roll_control * delta[0] + m.roll_damping * omega[0][p] * reduced[p])),
+            lanes(|p| {
+                qsl[p]
+                    * (m.yaw_stiffness * beta[p] + m.yaw_control * delta[2] + m.yaw_damping * omega[1][p] * reduced[p])
+            }),
+            lanes(|p| {
+                qsl[p]
+                    * (m.pitch_stiffness * alpha[p]
+                        + m.pitch_control * delta[1]
+                        + m.pitch_damping * omega[2][p] * reduced[p])
+            }),
         ]
     }
 
     /// The derivative of the ten motion states `x` (`Vx, Vy, Vz, φ, ψ, γ, h, ωx, ωy, ωz`)
     /// under the coefficients `c` and deflections `delta`: eq. (1), with `X` along +x.
     pub fn motion_derivative(&self, x: &[f64], c: &[f64], delta: &[f64], dxdt: &mut [f64]) {
+        self.motion_derivative_lanes::<1>(x.as_chunks().0, c.as_chunks().0, delta, dxdt.as_chunks_mut().0);
+    }
+
+    /// [`motion_derivative`](Self::motion_derivative) lane by lane, the same operations in
+    /// the same order: bit for bit the point law at every lane.
+    #[inline(always)]
+    fn motion_derivative_lanes<const L: usize>(
+        &self,
+        x: &[[f64; L]],
+        c: &[[f64; L]],
+        delta: &[f64],
+        dxdt: &mut [[f64; L]],
+    ) {
         let [vx, vy, vz, phi, _psi, gamma, h, wx, wy, wz] =
-            [x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8], x[9]];
-        let air = self.air(&x[..3], h);
-        let [fx, fy, fz] = self.force(&air, c, delta);
-        let [mx, my, mz] = self.moment(&air, &x[7..10], delta);
+            [&x[0], &x[1], &x[2], &x[3], &x[4], &x[5], &x[6], &x[7], &x[8], &x[9]];
+        let air = self.air_lanes(&x[..3], h);
+        let [fx, fy, fz] = self.force_lanes(&air, c, delta);
+        let [mx, my, mz] = self.moment_lanes(&air, &x[7..10], delta);
         let (g, m) = (self.gravity, self.mass);
         let [ix, iy, iz] = self.inertia;
-        let (sin_phi, cos_phi) = phi.sin_cos();
-        let (sin_gamma, cos_gamma) = gamma.sin_cos();
-        let yaw_pitch = wy * cos_gamma - wz * sin_gamma;
-        dxdt[0] = wz * vy - wy * vz - g * sin_phi + fx / m;
-        dxdt[1] = wx * vz - wz * vx - g * cos_phi * cos_gamma + fy / m;
-        dxdt[2] = wy * vx - wx * vy + g * cos_phi * sin_gamma + fz / m;
-        dxdt[3] = wy * sin_gamma + wz * cos_gamma;
-        dxdt[4] = yaw_pitch / cos_phi;
-        dxdt[5] = wx - yaw_pitch * phi.tan();
-        dxdt[6] = vx * sin_phi + vy * cos_phi * cos_gamma - vz * cos_phi * sin_gamma;
-        dxdt[7] = ((iy - iz) * wy * wz + mx) / ix;
-        dxdt[8] = ((iz - ix) * wz * wx + my) / iy;
-        dxdt[9] = ((ix - iy) * wx * wy + mz) / iz;
+        let (mut sin_phi, mut cos_phi, mut tan_phi) = ([0.0; L], [0.0; L], [0.0; L]);
+        let (mut sin_gamma, mut cos_gamma) = ([0.0; L], [0.0; L]);
+        for p in 0..L {
+            (sin_phi[p], cos_phi[p]) = phi[p].sin_cos();
+            tan_phi[p] = phi[p].tan();
+            (sin_gamma[p], cos_gamma[p]) = gamma[p].sin_cos();
+        }
+        let yaw_pitch = lanes::<L>(|p| wy[p] * cos_gamma[p] - wz[p] * sin_gamma[p]);
+        dxdt[0] = lanes(|p| wz[p] * vy[p] - wy[p] * vz[p] - g * sin_phi[p] + fx[p] / m);
+        dxdt[1] = lanes(|p| wx[p] * vz[p] - wz[p] * vx[p] - g * cos_phi[p] * cos_gamma[p] + fy[p] / m);
+        dxdt[2] = lanes(|p| wy[p] * vx[p] - wx[p] * vy[p] + g * cos_phi[p] * sin_gamma[p] + fz[p] / m);
+        dxdt[3] = lanes(|p| wy[p] * sin_gamma[p] + wz[p] * cos_gamma[p]);
+        dxdt[4] = lanes(|p| yaw_pitch[p] / cos_phi[p]);
+        dxdt[5] = lanes(|p| wx[p] - yaw_pitch[p] * tan_phi[p]);
+        dxdt[6] = lanes(|p| vx[p] * sin_phi[p] + vy[p] * cos_phi[p] * cos_gamma[p] - vz[p] * cos_phi[p] * sin_gamma[p]);
+        dxdt[7] = lanes(|p| ((iy - iz) * wy[p] * wz[p] + mx[p]) / ix);
+        dxdt[8] = lanes(|p| ((iz - ix) * wz[p] * wx[p] + my[p]) / iy);
+        dxdt[9] = lanes(|p| ((ix - iy) * wx[p] * wy[p] + mz[p]) / iz);
     }
 
     /// The twelve measurements of eq. (2) of the motion `x` under `c` and `delta`:
     /// `ωx, ωy, ωz; Nx, Ny, Nz; φ, ψ, γ; h; α, β`, the overloads the aerodynamic force
     /// over `m·g`.
     pub fn measure(&self, x: &[f64], c: &[f64], delta: &[f64], z: &mut [f64]) {
-        let air = self.air(&x[..3], x[6]);
-        let force = self.force(&air, c, delta);
+        self.measure_lanes::<1>(x.as_chunks().0, c.as_chunks().0, delta, z.as_chunks_mut().0);
+    }
+
+    /// [`measure`](Self::measure) lane by lane, bit for bit the point law at every lane.
+    #[inline(always)]
+    fn measure_lanes<const L: usize>(&self, x: &[[f64; L]], c: &[[f64; L]], delta: &[f64], z: &mut [[f64; L]]) {
+        let air = self.air_lanes(&x[..3], &x[6]);
+        let force = self.force_lanes(&air, c, delta);
         let weight = self.mass * self.gravity;
         z[..3].copy_from_slice(&x[7..10]);
         for (zi, f) in z[3..6].iter_mut().zip(force) {
-            *zi = f / weight;
+            *zi = lanes(|p| f[p] / weight);
         }
         z[6..10].copy_from_slice(&x[3..7]);
         z[10] = air.alpha;
@@ -193,6 +270,12 @@ impl VectorField for Missile6Dof {
         self.airframe.motion_derivative(&x[..10], &x[10..], u, &mut dxdt[..10]);
         dxdt[10..].fill(0.0);
     }
+
+    #[inline(always)]
+    fn derivative_block(&self, _t: f64, x: &[Component], u: &[f64], dxdt: &mut [Component], _scratch: &mut [f64]) {
+        self.airframe.motion_derivative_lanes(&x[..10], &x[10..], u, &mut dxdt[..10]);
+        dxdt[10..].fill([0.0; _]);
+    }
 }
 
 impl Observation for Missile6Dof {
@@ -202,6 +285,11 @@ impl Observation for Missile6Dof {
 
     fn observe(&self, _t: f64, x: &[f64], u: &[f64], z: &mut [f64]) {
         self.airframe.measure(&x[..10], &x[10..], u, z);
+    }
+
+    #[inline(always)]
+    fn observe_block(&self, _t: f64, x: &[Component], u: &[f64], z: &mut [Component], _scratch: &mut [f64]) {
+        self.airframe.measure_lanes(&x[..10], &x[10..], u, z);
     }
 }
 
