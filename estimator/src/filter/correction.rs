@@ -61,6 +61,7 @@ impl Correction {
     /// (a failed update leaves the belief as it was), and records the
     /// diagnostics. `z` is the full measurement; its used rows are
     /// `innovation.rows()`, and `z_hat`, `s`, `c` must hold their values.
+    #[inline(always)]
     pub fn apply(
         &mut self,
         z: &DVector<f64>,

@@ -26,6 +26,7 @@ impl CovarianceRoot for CholeskyRoot {
         CholeskyRoot
     }
 
+    #[inline(always)]
     fn factor(&mut self, p: &DMatrix<f64>, out: &mut DMatrix<f64>) -> Result<(), RootFailed> {
         let n = p.nrows();
         out.copy_from(p);

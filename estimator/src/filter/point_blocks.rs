@@ -41,6 +41,7 @@ impl PointBlocks {
 
     /// Loads points stored one per column (`dim × count`, column-major), and
     /// `pad` into the padding.
+    #[inline(always)]
     pub(crate) fn load_columns(&mut self, points: &[f64], pad: &[f64]) {
         let dim = self.dim;
         for (p, point) in points.chunks_exact(dim).take(self.count).enumerate() {
@@ -53,6 +54,7 @@ impl PointBlocks {
     }
 
     /// Stores the points one per column (`dim × count`, column-major).
+    #[inline(always)]
     pub(crate) fn store_columns(&self, points: &mut [f64]) {
         let dim = self.dim;
         for (p, point) in points.chunks_exact_mut(dim).take(self.count).enumerate() {

@@ -200,6 +200,7 @@ impl<M: Model, R: CovarianceRoot, P: PointRule> SigmaPointKalman<M, R, P> {
     }
 
     /// Spreads the points around `x` with the square root of `p`.
+    #[inline(always)]
     fn spread(&mut self, stage: Stage) -> Result<(), FilterError> {
         let x = &self.core.x;
         self.root
@@ -272,6 +273,7 @@ impl<M: Model, R: CovarianceRoot, P: PointRule> StateEstimator for SigmaPointKal
 }
 
 /// `out = Σ wᵢ·colᵢ` with the points' mean weights.
+#[inline(always)]
 fn weighted_mean(points: &DMatrix<f64>, set: &SigmaPoints, out: &mut [f64]) {
     let n = out.len();
     out.fill(0.0);
@@ -281,6 +283,7 @@ fn weighted_mean(points: &DMatrix<f64>, set: &SigmaPoints, out: &mut [f64]) {
 }
 
 /// Subtracts `mean` from every column.
+#[inline(always)]
 fn subtract_mean(points: &mut DMatrix<f64>, mean: &[f64]) {
     let n = mean.len();
     for col in points.as_mut_slice().chunks_exact_mut(n) {

@@ -8,6 +8,7 @@ use super::lanes::Lanes;
 ///
 /// Returns the index of the first pivot that is not positive (or not finite)
 /// when `A` is not numerically positive definite; `a` is then garbage.
+#[inline(always)]
 pub(crate) fn cholesky_in_place(a: &mut [f64], ld: usize, n: usize) -> Result<(), usize> {
     // Right-looking, column oriented: every inner loop runs down a contiguous column.
     for j in 0..n {
@@ -40,6 +41,7 @@ pub(crate) fn cholesky_in_place(a: &mut [f64], ld: usize, n: usize) -> Result<()
 /// Solves `L·X = B` in place for a lower-triangular `L` (`n×n`, leading
 /// dimension `ldl`) and `n_rhs` right-hand sides stored as the columns of `b`
 /// (leading dimension `ldb`). Returns `false` on a zero diagonal.
+#[inline(always)]
 pub(crate) fn solve_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: usize, n_rhs: usize) -> bool {
     for r in 0..n_rhs {
         let x = &mut b[r * ldb..r * ldb + n];

@@ -75,6 +75,7 @@ pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
 
 /// `C = A·B` for column-major `A` (`rows × inner`, ld `lda`), `B` (`inner × cols`, ld `ldb`),
 /// `C` (ld `ldc`). (nalgebra's `gemm` packs through `matrixmultiply`, which allocates.)
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn mul_to(
     a: &[f64],
@@ -101,6 +102,7 @@ pub(crate) fn mul_to(
 
 /// `C += Aᵀ·B` for column-major `A` (`inner × rows`, ld `lda`), `B` (`inner × cols`, ld `ldb`),
 /// `C` (`rows × cols`, ld `ldc`).
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn tr_mul_add(
     a: &[f64],

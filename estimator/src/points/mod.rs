@@ -75,6 +75,7 @@ impl SigmaPoints {
     }
 
     /// Covariance weight of point `i` (same order as [`Self::mean_weight`]).
+    #[inline]
     pub fn covariance_weight(&self, i: usize) -> f64 {
         if i < 2 * self.n {
             self.weight
