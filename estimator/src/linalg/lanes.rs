@@ -207,8 +207,9 @@ pub(crate) use with_avx2;
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m256d, _mm256_add_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fmsub_pd,
-        _mm256_fnmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_permute2f128_pd, _mm256_set1_pd,
+        __m256d, _mm256_add_pd, _mm256_castpd256_pd128, _mm256_cmpgt_epi64, _mm256_extractf128_pd, _mm256_fmadd_pd,
+        _mm256_fmsub_pd, _mm256_fnmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd, _mm256_maskload_pd, _mm256_maskstore_pd,
+        _mm256_mul_pd, _mm256_permute2f128_pd, _mm256_set1_epi64x, _mm256_set1_pd, _mm256_setr_epi64x,
         _mm256_setzero_pd, _mm256_storeu_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd, _mm_add_pd, _mm_cvtsd_f64,
         _mm_unpackhi_pd,
     };
@@ -428,59 +429,81 @@ mod avx2 {
         }
     }
 
-    /// `R` registers of `out` from `at`, with every term added in them.
+    /// `R` registers of `out` from `at`, with every term added in them, in order. The
+    /// last register holds only its first `last` lanes (1 to 4), loaded and stored
+    /// masked, so that any length is whole registers: a scalar tail would add its terms
+    /// one after the other in a single chain, each waiting for the last fused add.
     ///
     /// # Safety
-    /// `out[at..at + 4R]` and `columns[t·ld + at..t·ld + at + 4R]` for every
-    /// term `t < c.len()` lie inside their slices.
+    /// `out[at..at + 4(R − 1) + last]` and `columns[t·ld + at..t·ld + at + 4(R − 1) + last]`
+    /// for every term `t < c.len()` lie inside their slices; `1 ≤ last ≤ 4`.
     #[inline]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn combine_registers<const R: usize>(out: &mut [f64], at: usize, c: &[f64], columns: &[f64], ld: usize) {
+    unsafe fn combine_registers<const R: usize>(
+        out: &mut [f64],
+        at: usize,
+        c: &[f64],
+        columns: &[f64],
+        ld: usize,
+        last: usize,
+    ) {
         let (o, p) = (out.as_mut_ptr(), columns.as_ptr());
-        // SAFETY: the caller's bounds.
+        let mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x(last as i64), _mm256_setr_epi64x(0, 1, 2, 3));
+        let tail = 4 * (R - 1);
+        // SAFETY: the caller's bounds; the masked lanes are neither read nor written.
         unsafe {
             // Loops, not `array::from_fn`: a closure would be compiled without AVX2.
             let mut acc = [_mm256_setzero_pd(); R];
-            for (r, acc) in acc.iter_mut().enumerate() {
+            for (r, acc) in acc[..R - 1].iter_mut().enumerate() {
                 *acc = _mm256_loadu_pd(o.add(at + 4 * r));
             }
+            acc[R - 1] = _mm256_maskload_pd(o.add(at + tail), mask);
             for (t, &ct) in c.iter().enumerate() {
                 let ct = _mm256_set1_pd(ct);
                 let col = p.add(t * ld + at);
-                for (r, acc) in acc.iter_mut().enumerate() {
+                for (r, acc) in acc[..R - 1].iter_mut().enumerate() {
                     *acc = _mm256_fmadd_pd(ct, _mm256_loadu_pd(col.add(4 * r)), *acc);
                 }
+                acc[R - 1] = _mm256_fmadd_pd(ct, _mm256_maskload_pd(col.add(tail), mask), acc[R - 1]);
             }
-            for (r, acc) in acc.iter().enumerate() {
+            for (r, acc) in acc[..R - 1].iter().enumerate() {
                 _mm256_storeu_pd(o.add(at + 4 * r), *acc);
             }
+            _mm256_maskstore_pd(o.add(at + tail), mask, acc[R - 1]);
         }
     }
 
+    /// Up to 32 entries (8 registers) at a time: the registers' chains of fused adds
+    /// are independent, and the more of them run at once, the less each term waits.
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     fn combine(out: &mut [f64], c: &[f64], columns: &[f64], ld: usize) {
         let len = out.len();
         check_columns(c.len(), len, columns, ld);
         let mut at = 0;
-        while at + 16 <= len {
-            // SAFETY (here and below): `at + 4R ≤ len`, and `check_columns` holds.
-            unsafe { combine_registers::<4>(out, at, c, columns, ld) };
-            at += 16;
+        while len - at > 32 {
+            // SAFETY (here and below): `at + 4R ≤ len` (the last register's `last`
+            // lanes for the final call), and `check_columns` holds.
+            unsafe { combine_registers::<8>(out, at, c, columns, ld, 4) };
+            at += 32;
         }
-        if at + 8 <= len {
-            // SAFETY: as above.
-            unsafe { combine_registers::<2>(out, at, c, columns, ld) };
-            at += 8;
+        let rest = len - at;
+        if rest == 0 {
+            return;
         }
-        if at + 4 <= len {
-            // SAFETY: as above.
-            unsafe { combine_registers::<1>(out, at, c, columns, ld) };
-            at += 4;
-        }
-        for (i, o) in out.iter_mut().enumerate().skip(at) {
-            for (t, &ct) in c.iter().enumerate() {
-                *o = ct.mul_add(columns[t * ld + i], *o);
+        let registers = rest.div_ceil(4);
+        let last = rest - 4 * (registers - 1);
+        // SAFETY: as above.
+        unsafe {
+            match registers {
+                1 => combine_registers::<1>(out, at, c, columns, ld, last),
+                2 => combine_registers::<2>(out, at, c, columns, ld, last),
+                3 => combine_registers::<3>(out, at, c, columns, ld, last),
+                4 => combine_registers::<4>(out, at, c, columns, ld, last),
+                5 => combine_registers::<5>(out, at, c, columns, ld, last),
+                6 => combine_registers::<6>(out, at, c, columns, ld, last),
+                7 => combine_registers::<7>(out, at, c, columns, ld, last),
+                _ => combine_registers::<8>(out, at, c, columns, ld, last),
             }
         }
     }
@@ -569,15 +592,26 @@ mod tests {
             Portable.rotate(&mut x2, &mut y2, c, s);
             assert!(close(&x1, &x2, 20.0) && close(&y1, &y2, 20.0));
         }
-        // Every length, so that each register count and the scalar tail run.
-        for len in 0..40 {
+        // Every length, so that each register count and each masked last register run.
+        for len in 0..80 {
             let ld = len + 3;
             let columns = data(5 * ld, 9);
             let c = [0.5, -1.25, 3.0, 0.0, -0.75];
-            let (mut x1, mut x2) = (data(len, 4), data(len, 4));
-            avx2.combine(&mut x1, &c, &columns, ld);
+            // `out` is followed by sentinels that a masked lane must not touch.
+            let mut x1: Vec<f64> = data(len, 4).into_iter().chain([f64::NAN; 4]).collect();
+            let mut x2 = data(len, 4);
+            avx2.combine(&mut x1[..len], &c, &columns, ld);
             Portable.combine(&mut x2, &c, &columns, ld);
-            assert!(close(&x1, &x2, 100.0), "len {len}");
+            assert!(close(&x1[..len], &x2, 100.0), "len {len}");
+            assert!(x1[len..].iter().all(|v| v.is_nan()), "len {len}: wrote past the end");
+            // Each entry is its terms fused in order, one chain per entry, to the bit.
+            let mut fused = data(len, 4);
+            for (i, o) in fused.iter_mut().enumerate() {
+                for (t, &ct) in c.iter().enumerate() {
+                    *o = ct.mul_add(columns[t * ld + i], *o);
+                }
+            }
+            assert_eq!(&x1[..len], fused.as_slice(), "len {len}");
         }
     }
 
