@@ -13,7 +13,8 @@
 //!   missile with its fins moved as sinusoids of `t`, n = 20, m = 12, with the study's
 //!   tuning,
 //!
-//! all at `dt = 0.005 s`. Benchmarks are named `step/<model>/<filter>`.
+//! all at `dt = 0.005 s` (`cases/`, which `examples/step_loop.rs` shares). Benchmarks are
+//! named `step/<model>/<filter>`; `scripts/benchmark` prints them as the README's table.
 //!
 //! The same SRCKF cycle through the supervised loop (`SupervisedFilter`: predict, then
 //! the gated update and its commit) is `supervised/<model>/<settings>`, with the
