@@ -257,15 +257,28 @@ impl Load {
     /// `F(t₀ + j·step)` for `j = 0 … count−1`, by rotating each component's
     /// phasor instead of calling `cos` (400 components × millions of RK4
     /// stages otherwise dominate the study's run time). The phasors are
-    /// re-anchored exactly every 1024 samples, so rounding cannot accumulate.
+    /// re-anchored exactly every [`Self::ANCHOR`] samples, so rounding cannot accumulate.
     pub fn tabulate(&self, t0: f64, step: f64, count: usize) -> Vec<f64> {
-        const ANCHOR: usize = 1024;
         let mut out = Vec::with_capacity(count);
+        self.tabulate_into(t0, step, 0, count, &mut out);
+        out
+    }
+
+    /// The phasors are re-anchored at every multiple of this index.
+    pub const ANCHOR: usize = 1024;
+
+    /// Writes `F(t₀ + j·step)` for `j = first … first + count − 1` into `out` (cleared
+    /// first): the values [`tabulate`](Self::tabulate) gives at those indices, to the bit,
+    /// so a simulation can tabulate its load piece by piece. `first` is a multiple of
+    /// [`Self::ANCHOR`].
+    pub fn tabulate_into(&self, t0: f64, step: f64, first: usize, count: usize, out: &mut Vec<f64>) {
+        assert_eq!(first % Self::ANCHOR, 0, "a piece of the table starts at an anchor");
+        out.clear();
         let rotation: Vec<(f64, f64)> =
             self.components.iter().map(|(_, w, _)| ((w * step).cos(), (w * step).sin())).collect();
         let mut phasor = vec![(0.0, 0.0); self.components.len()];
-        for j in 0..count {
-            if j % ANCHOR == 0 {
+        for j in first..first + count {
+            if j % Self::ANCHOR == 0 {
                 let t = t0 + j as f64 * step;
                 for (z, (a, w, p)) in phasor.iter_mut().zip(&self.components) {
                     *z = (a * (w * t + p).cos(), a * (w * t + p).sin());
@@ -277,7 +290,6 @@ impl Load {
                 *z = (z.0 * r.0 - z.1 * r.1, z.0 * r.1 + z.1 * r.0);
             }
         }
-        out
     }
 
     /// `Ḟ(t)`.
@@ -290,6 +302,19 @@ impl Load {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_table_in_pieces_is_the_whole_table_to_the_bit() {
+        let load = Load::random(3, 10.0).with_step(Step { at: 0.3, size: 5.0 });
+        let whole = load.tabulate(0.0, 5e-5, 5 * Load::ANCHOR + 17);
+        let mut piece = Vec::new();
+        for first in (0..whole.len()).step_by(2 * Load::ANCHOR) {
+            let count = (2 * Load::ANCHOR).min(whole.len() - first);
+            load.tabulate_into(0.0, 5e-5, first, count, &mut piece);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&piece), bits(&whole[first..first + count]), "from {first}");
+        }
+    }
 
     #[test]
     fn random_load_has_the_requested_rms_and_depends_on_the_seed_only() {
