@@ -1,22 +1,21 @@
 //! One FMU instance: everything per instance, nothing global. The C ABI layer
 //! (`lib.rs`) checks pointers and the call order and then calls in here.
 //!
-//! Time semantics (which sample takes which inputs, what a read shows) are
-//! `timing.rs`; this file keeps the values, the life cycle and the logging.
-//! Outputs are computed on demand: setting an input, a tunable parameter or
-//! stepping marks them stale, and the next get computes them (as the
-//! Reference-FMUs do), so a read after new inputs has direct feedthrough.
+//! An instance is the shell every FMU of the binary shares ([`Shell`]: the
+//! values, the life-cycle state, the times and the one logging path) and what
+//! the FMU does ([`Behaviour`]): estimate (`estimating.rs`) or simulate a plant
+//! (`simulating.rs`). The shell checks what is the same for both (the call
+//! order, value references, types, bounds, the communication points) before
+//! the behaviour sees a call.
 
 use std::ffi::CString;
 
-use estimator::{Event, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
-
-use crate::estimators::{self, status_value, Descriptor, MAX_DERIVED};
+use crate::catalogue::Fmu;
+use crate::estimating::Estimating;
 use crate::ffi::{Fmi2CallbackLogger, Fmi2ComponentEnvironment, Fmi2Status};
-use crate::input_timing_check::{InputTimingCheck, Phase};
+use crate::simulating::Simulating;
 use crate::state::ModelState;
-use crate::timing::{Estimation, InputTiming, Reading};
-use crate::variables::{Causality, Parameters, Role, Variability};
+use crate::variables::{Causality, Variability, Variable};
 
 /// The log categories of `<LogCategories>`.
 pub const LOG_CATEGORIES: [(&str, &str); 4] = [
@@ -26,108 +25,44 @@ pub const LOG_CATEGORIES: [(&str, &str); 4] = [
     ("logStatusFatal", "messages with status fmi2Fatal"),
 ];
 
-/// One instance of an estimator FMU.
-pub struct Instance {
-    pub(crate) descriptor: Descriptor,
+/// What every instance has, whatever the FMU does.
+pub struct Shell {
     name: CString,
     env: Fmi2ComponentEnvironment,
     logger: Fmi2CallbackLogger,
     debug_logging: bool,
     categories: [bool; LOG_CATEGORIES.len()],
     pub(crate) state: ModelState,
+    /// One per variable, by value reference.
     pub(crate) values: Vec<f64>,
     pub(crate) start_time: f64,
     pub(crate) stop_time: Option<f64>,
     pub(crate) time: f64,
     pub(crate) last_successful_time: f64,
-    /// The filter and its clock, from `fmi2ExitInitializationMode` on.
-    pub(crate) estimation: Option<Estimation>,
-    /// The inputs as they stand, by measurement row (non-finite: missing).
-    measurement: Vec<f64>,
-    /// The controls as they stand, by component of `u` (always finite).
-    controls: Vec<f64>,
-    /// Per measurement row: the importer has set this input at least once.
-    pub(crate) input_ever_set: Vec<bool>,
-    /// An input was set at the current communication point.
-    pub(crate) inputs_set: bool,
-    /// The output values are not those of the current time and inputs.
-    outputs_stale: bool,
-    /// Per measurement row: a non-finite value, or the input never being set, was already reported.
-    pub(crate) missing_reported: Vec<bool>,
-    pub(crate) off_grid_reported: bool,
-    /// Whether the master's ordering fits `input_timing` (`input_timing_check.rs`).
-    pub(crate) timing_check: InputTimingCheck,
+}
+
+/// What the FMU does.
+pub enum Behaviour {
+    /// An estimator FMU.
+    Estimator(Box<Estimating>),
+    /// A plant FMU.
+    Plant(Box<Simulating>),
+}
+
+/// One instance of an FMU of this binary.
+pub struct Instance {
+    pub(crate) shell: Shell,
+    pub(crate) behaviour: Behaviour,
 }
 
 // SAFETY: the environment pointer is only handed back to the importer's logger;
 // FMI requires the importer to call one instance from one thread at a time.
 unsafe impl Send for Instance {}
 
-impl Instance {
-    pub fn new(
-        descriptor: Descriptor,
-        name: CString,
-        env: Fmi2ComponentEnvironment,
-        logger: Fmi2CallbackLogger,
-        logging_on: bool,
-    ) -> Self {
-        let (m, k) = (descriptor.measurement_dim(), descriptor.control_dim());
-        let mut instance = Self {
-            descriptor,
-            name,
-            env,
-            logger,
-            debug_logging: logging_on,
-            categories: [true; LOG_CATEGORIES.len()],
-            state: ModelState::Instantiated,
-            values: Vec::new(),
-            start_time: 0.0,
-            stop_time: None,
-            time: 0.0,
-            last_successful_time: 0.0,
-            estimation: None,
-            measurement: vec![f64::NAN; m],
-            controls: vec![0.0; k],
-            input_ever_set: vec![false; m],
-            inputs_set: false,
-            outputs_stale: false,
-            missing_reported: vec![false; m],
-            off_grid_reported: false,
-            timing_check: InputTimingCheck::new(m),
-        };
-        instance.reset();
-        instance
-    }
-
-    /// Back to the state after `fmi2Instantiate` (logging settings kept).
-    pub fn reset(&mut self) {
-        self.state = ModelState::Instantiated;
-        self.values = self.descriptor.variables.iter().map(|v| v.start.unwrap_or(f64::NAN)).collect();
-        self.set_role(Role::SkippedMeasurements, 0.0);
-        self.set_role(Role::FilterHealthy, 1.0);
-        // No update has been made: no input has entered one.
-        for row in 0..self.descriptor.measurement_dim() {
-            self.set_role(Role::InputStatus(row), f64::from(status_value(RowOutcome::Missing)));
-        }
-        self.start_time = 0.0;
-        self.stop_time = None;
-        self.time = 0.0;
-        self.last_successful_time = 0.0;
-        self.estimation = None;
-        self.input_ever_set.iter_mut().for_each(|s| *s = false);
-        self.inputs_set = false;
-        self.outputs_stale = false;
-        self.missing_reported.iter_mut().for_each(|r| *r = false);
-        self.off_grid_reported = false;
-        self.timing_check.reset();
-        self.set_role(Role::InputTimingCheck, f64::from(crate::input_timing_check::UNDECIDED));
-    }
-
-    // ----- logging: the one path every message takes -----
-
+impl Shell {
     /// Sends a message to the importer's logger, if its category is enabled
     /// (failures — discard, error, fatal — are always sent: they say what
-    /// failed and when).
+    /// failed and when). The one path every message takes.
     pub fn log(&self, status: Fmi2Status, category: &str, message: &str) {
         let enabled = status >= Fmi2Status::Discard
             || (self.debug_logging
@@ -151,6 +86,81 @@ impl Instance {
         self.log(Fmi2Status::Error, "logStatusError", message);
         Fmi2Status::Error
     }
+}
+
+impl Instance {
+    pub fn new(
+        fmu: Fmu,
+        name: CString,
+        env: Fmi2ComponentEnvironment,
+        logger: Fmi2CallbackLogger,
+        logging_on: bool,
+    ) -> Self {
+        let shell = Shell {
+            name,
+            env,
+            logger,
+            debug_logging: logging_on,
+            categories: [true; LOG_CATEGORIES.len()],
+            state: ModelState::Instantiated,
+            values: Vec::new(),
+            start_time: 0.0,
+            stop_time: None,
+            time: 0.0,
+            last_successful_time: 0.0,
+        };
+        let behaviour = match fmu {
+            Fmu::Estimator(d) => Behaviour::Estimator(Box::new(Estimating::new(d))),
+            Fmu::Plant(d) => Behaviour::Plant(Box::new(Simulating::new(d))),
+        };
+        let mut instance = Self { shell, behaviour };
+        instance.reset();
+        instance
+    }
+
+    /// The variables; value reference = position.
+    pub fn variables(&self) -> &[Variable] {
+        match &self.behaviour {
+            Behaviour::Estimator(e) => &e.descriptor.variables,
+            Behaviour::Plant(p) => &p.descriptor.variables,
+        }
+    }
+
+    /// The GUID of the FMU.
+    pub fn guid(&self) -> &str {
+        match &self.behaviour {
+            Behaviour::Estimator(e) => e.descriptor.guid(),
+            Behaviour::Plant(p) => p.descriptor.guid(),
+        }
+    }
+
+    pub fn log(&self, status: Fmi2Status, category: &str, message: &str) {
+        self.shell.log(status, category, message);
+    }
+
+    pub fn error(&self, message: &str) -> Fmi2Status {
+        self.shell.error(message)
+    }
+
+    /// Back to the state after `fmi2Instantiate` (logging settings kept).
+    pub fn reset(&mut self) {
+        let shell = &mut self.shell;
+        shell.state = ModelState::Instantiated;
+        shell.start_time = 0.0;
+        shell.stop_time = None;
+        shell.time = 0.0;
+        shell.last_successful_time = 0.0;
+        match &mut self.behaviour {
+            Behaviour::Estimator(e) => {
+                shell.values = e.descriptor.variables.iter().map(|v| v.start.unwrap_or(f64::NAN)).collect();
+                e.reset(shell);
+            }
+            Behaviour::Plant(p) => {
+                shell.values = p.descriptor.variables.iter().map(|v| v.start.unwrap_or(f64::NAN)).collect();
+                p.reset();
+            }
+        }
+    }
 
     /// `fmi2SetDebugLogging`.
     pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Fmi2Status {
@@ -159,10 +169,10 @@ impl Instance {
             return self
                 .error(&format!("fmi2SetDebugLogging: unknown log category '{unknown}'; known: {}", known.join(", ")));
         }
-        self.debug_logging = on;
+        self.shell.debug_logging = on;
         for (i, (name, _)) in LOG_CATEGORIES.iter().enumerate() {
             if categories.is_empty() || categories.contains(name) {
-                self.categories[i] = on;
+                self.shell.categories[i] = on;
             }
         }
         Fmi2Status::Ok
@@ -170,19 +180,11 @@ impl Instance {
 
     // ----- values -----
 
-    fn set_role(&mut self, role: Role, value: f64) {
-        for (v, x) in self.descriptor.variables.iter().zip(self.values.iter_mut()) {
-            if v.role == role {
-                *x = value;
-            }
-        }
-    }
-
     /// Checks that variable `vr` may be set now, returning its index.
     pub fn check_settable(&self, vr: u32) -> Result<usize, String> {
         let index = vr as usize;
-        let var = self.descriptor.variables.get(index).ok_or_else(|| self.unknown(vr))?;
-        match (var.causality, var.variability, self.state) {
+        let var = self.variables().get(index).ok_or_else(|| self.unknown(vr))?;
+        match (var.causality, var.variability, self.shell.state) {
             (Causality::Output, _, _) => Err(format!("variable {} (vr {vr}) is an output and cannot be set", var.name)),
             (Causality::Parameter, Variability::Fixed, ModelState::StepComplete) => Err(format!(
                 "variable {} (vr {vr}) is a fixed parameter: set it before fmi2ExitInitializationMode",
@@ -193,54 +195,21 @@ impl Instance {
     }
 
     pub fn unknown(&self, vr: u32) -> String {
-        format!(
-            "unknown value reference {vr} (the FMU has {} variables, 0 … {})",
-            self.values.len(),
-            self.values.len() - 1
-        )
+        let n = self.shell.values.len();
+        format!("unknown value reference {vr} (the FMU has {n} variables, 0 … {})", n - 1)
     }
 
-    /// Applies a set of new values at once (already type-checked): refuses the
-    /// whole call, changing nothing, when a tunable parameter would make the
-    /// noise invalid while the filter runs.
+    /// Applies a set of new values at once (already checked by type, bounds and
+    /// role): the behaviour may refuse the whole call, and then nothing changes.
     pub fn set_values(&mut self, updates: &[(usize, f64)]) -> Fmi2Status {
-        let old: Vec<(usize, f64)> = updates.iter().map(|&(i, _)| (i, self.values[i])).collect();
+        let old: Vec<(usize, f64)> = updates.iter().map(|&(i, _)| (i, self.shell.values[i])).collect();
         for &(i, v) in updates {
-            self.values[i] = v;
+            self.shell.values[i] = v;
         }
-        let tunable_changed =
-            updates.iter().any(|&(i, _)| self.descriptor.variables[i].variability == Variability::Tunable);
-        if self.state == ModelState::StepComplete && tunable_changed {
-            let p = Parameters::new(&self.descriptor.variables, &self.values);
-            let noise = p.positive("sample_time").and_then(|dt| (self.descriptor.build_noise)(&p, dt));
-            let applied = noise.and_then(|n| match self.estimation.as_mut() {
-                Some(e) => e.set_noise(n).map_err(|e| e.to_string()),
-                None => Ok(()),
-            });
-            if let Err(why) = applied {
-                for (i, v) in old {
-                    self.values[i] = v;
-                }
-                return self.error(&format!("tunable parameters refused, values unchanged: {why}"));
-            }
-            self.outputs_stale = true;
-            self.log(Fmi2Status::Ok, "logEvents", "tunable parameters applied to the filter noise");
+        match &mut self.behaviour {
+            Behaviour::Estimator(e) => e.values_set(&mut self.shell, updates, &old),
+            Behaviour::Plant(p) => p.values_set(&mut self.shell, updates, &old),
         }
-        for &(i, _) in updates {
-            match self.descriptor.variables[i].role {
-                Role::Measurement(row) => {
-                    self.input_ever_set[row] = true;
-                    self.inputs_set = true;
-                    self.outputs_stale = true;
-                }
-                Role::Control(_) => {
-                    self.inputs_set = true;
-                    self.outputs_stale = true;
-                }
-                _ => {}
-            }
-        }
-        Fmi2Status::Ok
     }
 
     // ----- life cycle -----
@@ -255,447 +224,81 @@ impl Instance {
                 return self.error(&format!("fmi2SetupExperiment: stop time {stop} is before start time {start}"));
             }
         }
-        self.start_time = start;
-        self.stop_time = stop;
-        self.time = start;
-        self.last_successful_time = start;
+        let shell = &mut self.shell;
+        shell.start_time = start;
+        shell.stop_time = stop;
+        shell.time = start;
+        shell.last_successful_time = start;
         Fmi2Status::Ok
     }
 
-    /// `fmi2ExitInitializationMode`: builds the filter from the parameters.
+    /// `fmi2EnterInitializationMode`.
+    pub fn enter_initialization(&mut self) {
+        self.shell.state = ModelState::InitializationMode;
+        self.shell.time = self.shell.start_time;
+        self.refresh_initial_outputs();
+    }
+
+    /// `fmi2ExitInitializationMode`: the behaviour builds what it runs from the parameters.
     pub fn exit_initialization(&mut self) -> Fmi2Status {
-        self.load_controls();
-        match build_estimation(&self.descriptor, &self.values, self.start_time, &self.controls) {
-            Ok(estimation) => {
-                let kind = estimation.filter().kind();
-                // The inputs set in initialisation mode, kept for the first step to compare.
-                self.standing_measurement();
-                self.timing_check.at_exit(&self.measurement, &self.input_ever_set);
-                self.estimation = Some(estimation);
-                self.state = ModelState::StepComplete;
-                self.outputs_stale = true;
-                self.log(Fmi2Status::Ok, "logEvents", &format!("initialised: {kind} at t = {}", self.time));
-                Fmi2Status::Ok
-            }
-            Err(why) => self.error(&format!("fmi2ExitInitializationMode: cannot build the estimator: {why}")),
+        match &mut self.behaviour {
+            Behaviour::Estimator(e) => e.exit_initialization(&mut self.shell),
+            Behaviour::Plant(p) => p.exit_initialization(&mut self.shell),
         }
     }
 
-    /// In initialisation mode the outputs show the prior of the current
-    /// parameters (left as they were while the parameters do not build a filter).
+    /// In initialisation mode the outputs show what the current parameters start from.
     pub fn refresh_initial_outputs(&mut self) {
-        if let Ok(filter) = build_filter(&self.descriptor, &self.values, self.start_time) {
-            let m = self.descriptor.measurement_dim();
-            let (faulty, statuses) = (vec![false; m], vec![RowOutcome::Missing; m]);
-            let nis = filter.innovation().nis();
-            let prior = Reading {
-                belief: filter.as_ref(),
-                nis,
-                skipped: 0,
-                rejected: 0,
-                faulty: &faulty,
-                statuses: &statuses,
-                healthy: true,
-                process_noise_scale: 1.0,
-                smoothed: None,
-            };
-            write_outputs(&self.descriptor, &mut self.values, Some(&prior));
+        match &mut self.behaviour {
+            Behaviour::Estimator(e) => e.refresh_initial_outputs(&mut self.shell),
+            Behaviour::Plant(p) => p.refresh_initial_outputs(&mut self.shell),
         }
     }
 
-    /// `fmi2DoStep`.
+    /// `fmi2DoStep`: the communication point must be the FMU's time, the step
+    /// positive and within the stop time; the behaviour steps, and on `fmi2OK`
+    /// the time moves to `t + h`.
     pub fn do_step(&mut self, t: f64, h: f64) -> Fmi2Status {
-        let tolerance = 1e-9 * self.time.abs().max(1.0);
-        if !t.is_finite() || (t - self.time).abs() > tolerance {
-            return self
-                .error(&format!("fmi2DoStep: communication point {t} does not match the FMU time {}", self.time));
+        let time = self.shell.time;
+        let tolerance = 1e-9 * time.abs().max(1.0);
+        if !t.is_finite() || (t - time).abs() > tolerance {
+            return self.error(&format!("fmi2DoStep: communication point {t} does not match the FMU time {time}"));
         }
         if !(h > 0.0 && h.is_finite()) {
             return self.error(&format!("fmi2DoStep: communication step size must be positive and finite, got {h}"));
         }
-        if let Some(stop) = self.stop_time {
+        if let Some(stop) = self.shell.stop_time {
             if t + h > stop + 1e-9 * stop.abs().max(1.0) {
                 return self.error(&format!("fmi2DoStep: step to {} passes the stop time {stop}", t + h));
             }
         }
-        self.load_measurement();
-        self.load_controls();
-        self.check_input_timing();
-        let Some(estimation) = self.estimation.as_mut() else {
-            return self.error("fmi2DoStep: no filter (internal state lost)");
+        let status = match &mut self.behaviour {
+            Behaviour::Estimator(e) => e.do_step(&mut self.shell, t, h),
+            Behaviour::Plant(p) => p.do_step(&mut self.shell, t, h),
         };
-        let end = t + h;
-        let stepped = estimation.step(t, h, &self.measurement, &self.controls);
-        self.report_events();
-        let Some(estimation) = self.estimation.as_mut() else {
-            return self.error("fmi2DoStep: no filter (internal state lost)");
-        };
-        if let Err(failure) = stepped {
-            // Show the last good estimate, as it is, and say when it was.
-            let mut last = estimation.last_reading();
-            last.healthy = false;
-            write_outputs(&self.descriptor, &mut self.values, Some(&last));
-            self.outputs_stale = false;
-            self.state = ModelState::StepFailed;
-            self.last_successful_time = failure.last_good;
-            self.log(
-                Fmi2Status::Discard,
-                "logStatusError",
-                &format!(
-                    "filter failed at t = {} s (sample {}): {}; the outputs are the last good estimate, at t = {} s",
-                    failure.time, failure.sample, failure.error, failure.last_good
-                ),
-            );
-            return Fmi2Status::Discard;
+        if status == Fmi2Status::Ok {
+            self.shell.time = t + h;
+            self.shell.last_successful_time = t + h;
         }
-        let off_grid = !estimation.at_current_sample(end);
-        let timing = estimation.timing();
-        if off_grid && !self.off_grid_reported {
-            self.off_grid_reported = true;
-            let ts = self.sample_time();
-            let rule = match timing {
-                InputTiming::AtCommunicationPoint => "inputs set there are not measurements",
-                InputTiming::AtStepEnd => "inputs set for it are not measurements",
-            };
-            self.log(
-                Fmi2Status::Warning,
-                "logStatusWarning",
-                &format!(
-                    "communication point t = {end} s is not a sample instant (start + k·{ts} s): {rule}, and the outputs there are predictions; use a step that is a multiple of sample_time to use every sample (reported once)"
-                ),
-            );
-        }
-        self.time = end;
-        self.last_successful_time = end;
-        self.inputs_set = false;
-        self.outputs_stale = true;
-        Fmi2Status::Ok
-    }
-
-    /// At `fmi2DoStep`, with the measurements standing: compares them with
-    /// those set in initialisation mode (`input_timing_check.rs`), shows the
-    /// verdict in `input_timing_check`, and warns, once, when the master's
-    /// ordering fits the other `input_timing`.
-    fn check_input_timing(&mut self) {
-        let Some(verdict) = self.timing_check.at_step(&self.measurement) else { return };
-        let Some(timing) = self.estimation.as_ref().map(Estimation::timing) else { return };
-        let value = self.timing_check.value(timing);
-        self.set_role(Role::InputTimingCheck, f64::from(value));
-        if value != crate::input_timing_check::OTHER_FITS {
-            return;
-        }
-        let message = match verdict {
-            Phase::NextInstant => {
-                "input_timing = 1 (communication_point), but the inputs set before the first fmi2DoStep differ from \
-                 those set in initialisation mode: the master seems to step the plant first and hand over its outputs \
-                 of t + h (Gauss–Seidel); set input_timing = 2 (step_end) (input_timing_check is 2)"
-            }
-            _ => {
-                "input_timing = 2 (step_end), but the inputs set before the first fmi2DoStep are those set in \
-                 initialisation mode, bit for bit, and change at the next step: the master seems to hand over the \
-                 plant's outputs of t before fmi2DoStep(t, h) (Jacobi); set input_timing = 1 (communication_point) \
-                 (input_timing_check is 2)"
-            }
-        };
-        self.log(Fmi2Status::Warning, "logStatusWarning", message);
-    }
-
-    /// Logs what the supervisor reported during the last step, once per
-    /// episode: an input becoming faulty or good again, a re-acquisition, the
-    /// filter becoming inconsistent or consistent again.
-    fn report_events(&mut self) {
-        let mut events = Vec::new();
-        if let Some(estimation) = self.estimation.as_mut() {
-            estimation.take_events(|e| events.push(e));
-        }
-        let input = |row: usize| {
-            self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).map_or("?", |v| &v.name)
-        };
-        // An intermittent input (a marker) is missing most of the time: its flag says nothing.
-        let intermittent =
-            |row: usize| self.descriptor.variables.iter().any(|v| v.role == Role::Measurement(row) && v.intermittent);
-        for event in events {
-            if let Event::Fault { channel, .. } = event {
-                if intermittent(channel) {
-                    continue;
-                }
-            }
-            let (status, category, text) = match event {
-                Event::Fault { channel, faulty: true, time } => (
-                    Fmi2Status::Warning,
-                    "logStatusWarning",
-                    format!("input {} is faulty from t = {time} s: rejected by the gate, stuck or missing for fault_after samples in a row; it is left out of the updates", input(channel)),
-                ),
-                Event::Fault { channel, faulty: false, time } => {
-                    (Fmi2Status::Ok, "logEvents", format!("input {} is good again at t = {time} s", input(channel)))
-                }
-                Event::Reacquired { channel, time } => (
-                    Fmi2Status::Warning,
-                    "logStatusWarning",
-                    format!("re-acquired at t = {time} s: input {} failed the gate reacquire_after samples in a row; the covariance was inflated and every input used", input(channel)),
-                ),
-                Event::Consistent { consistent: false, time } => (
-                    Fmi2Status::Warning,
-                    "logStatusWarning",
-                    format!("the filter is inconsistent from t = {time} s: its innovations over the last consistency_window samples exceed their bound (filter_healthy is false)"),
-                ),
-                Event::Consistent { consistent: true, time } => {
-                    (Fmi2Status::Ok, "logEvents", format!("the filter is consistent again at t = {time} s"))
-                }
-                Event::Exhausted { exhausted: true, time } => (
-                    Fmi2Status::Warning,
-                    "logStatusWarning",
-                    format!("no more re-acquisitions from t = {time} s: they have inflated the covariance by max_inflation since a sample last passed the gate whole; the filter predicts only while its inputs fail the gate (is a sensor's noise far above its r_<input>_std?)"),
-                ),
-                Event::Exhausted { exhausted: false, time } => (
-                    Fmi2Status::Ok,
-                    "logEvents",
-                    format!("every input passed the gate at t = {time} s: re-acquisitions are possible again"),
-                ),
-                Event::SmoothingRestarted { time } => (
-                    Fmi2Status::Warning,
-                    "logStatusWarning",
-                    format!("the fixed-lag smoother starts again at t = {time} s (a singular prediction or a non-finite term): the smoothed outputs describe smoothed_time, later than smoothing_lag says until that lag has passed"),
-                ),
-            };
-            self.log(status, category, &text);
-        }
+        status
     }
 
     /// `fmi2Terminate`: the outputs stay those of the final time.
     pub fn terminate(&mut self) {
         self.refresh_outputs();
-        self.state = ModelState::Terminated;
+        self.shell.state = ModelState::Terminated;
     }
 
-    /// The outputs are computed afresh at the next get (after a restored FMU state).
-    pub(crate) fn mark_outputs_stale(&mut self) {
-        self.outputs_stale = true;
-    }
-
-    /// Before a get: computes the outputs of the current time and inputs if
-    /// anything changed since they were last computed. A read that cannot be
-    /// computed sets the estimates to NaN and says why.
+    /// Before a get: the outputs of the current time and inputs.
     pub fn refresh_outputs(&mut self) {
-        if !self.outputs_stale || self.state != ModelState::StepComplete {
-            return;
-        }
-        self.outputs_stale = false;
-        self.load_measurement();
-        self.load_controls();
-        let Some(estimation) = self.estimation.as_mut() else { return };
-        let p = Parameters::new(&self.descriptor.variables, &self.values);
-        let build_noise = self.descriptor.build_noise;
-        let noise_over = |dt: f64| build_noise(&p, dt);
-        let inputs = self.inputs_set.then_some((self.measurement.as_slice(), self.controls.as_slice()));
-        let failed = match estimation.read(self.time, inputs, &noise_over) {
-            Ok(reading) => {
-                write_outputs(&self.descriptor, &mut self.values, Some(&reading));
-                None
-            }
-            Err(why) => Some(why),
-        };
-        if let Some(why) = failed {
-            write_outputs(&self.descriptor, &mut self.values, None);
-            self.log(
-                Fmi2Status::Warning,
-                "logStatusWarning",
-                &format!("the outputs at t = {} s are NaN: {why}", self.time),
-            );
+        match &mut self.behaviour {
+            Behaviour::Estimator(e) => e.refresh_outputs(&mut self.shell),
+            Behaviour::Plant(p) => p.refresh_outputs(&mut self.shell),
         }
     }
 
-    pub fn sample_time(&self) -> f64 {
-        Parameters::new(&self.descriptor.variables, &self.values).get("sample_time").unwrap_or(f64::NAN)
+    /// `fmi2GetBooleanStatus(fmi2Terminated)`: the slave cannot go on (a failed estimator).
+    pub fn asks_to_terminate(&self) -> bool {
+        self.shell.state == ModelState::StepFailed
     }
-
-    /// Copies the control inputs into the controls vector (`fmi2SetReal` keeps them finite).
-    fn load_controls(&mut self) {
-        for (v, &x) in self.descriptor.variables.iter().zip(&self.values) {
-            if let Role::Control(j) = v.role {
-                self.controls[j] = x;
-            }
-        }
-    }
-
-    /// Copies the inputs into the measurement vector: NaN for an input never
-    /// set (its start value is no measurement).
-    fn standing_measurement(&mut self) {
-        for (v, &x) in self.descriptor.variables.iter().zip(&self.values) {
-            if let Role::Measurement(row) = v.role {
-                self.measurement[row] = if self.input_ever_set[row] { x } else { f64::NAN };
-            }
-        }
-    }
-
-    /// [`Instance::standing_measurement`], reporting each channel's first missing value.
-    fn load_measurement(&mut self) {
-        self.standing_measurement();
-        for v in &self.descriptor.variables {
-            if let Role::Measurement(row) = v.role {
-                let (ever_set, z) = (self.input_ever_set[row], self.measurement[row]);
-                if !z.is_finite() && !self.missing_reported[row] && !v.intermittent {
-                    self.missing_reported[row] = true;
-                    let what = if ever_set { format!("is {z}") } else { "has never been set".to_string() };
-                    self.log(
-                        Fmi2Status::Warning,
-                        "logStatusWarning",
-                        &format!(
-                            "input {} {what} at t = {}: treated as missing (reported once per input)",
-                            v.name, self.time
-                        ),
-                    );
-                }
-            }
-        }
-    }
-}
-
-/// Writes a reading into the output values: the estimates, their standard
-/// deviations, the NIS, the counts and the flags; without one (a read that
-/// could not be computed) the estimates and the NIS are NaN and the filter is
-/// not healthy, the counts stay.
-fn write_outputs(descriptor: &Descriptor, values: &mut [f64], reading: Option<&Reading<'_>>) {
-    let mut derived = [f64::NAN; MAX_DERIVED];
-    if let Some(r) = reading {
-        (descriptor.derive)(&Parameters::new(&descriptor.variables, values), r, &mut derived);
-    }
-    for (v, x) in descriptor.variables.iter().zip(values.iter_mut()) {
-        match (v.role, reading) {
-            (Role::Estimate(i), Some(r)) => *x = r.belief.mean()[i],
-            (Role::EstimateStd(i), Some(r)) => *x = r.belief.variance(i).max(0.0).sqrt(),
-            (Role::Nis, Some(r)) => *x = r.nis,
-            (Role::ProcessNoiseScale, Some(r)) => *x = r.process_noise_scale,
-            (Role::SkippedMeasurements, Some(r)) => *x = r.skipped as f64,
-            (Role::RejectedMeasurements, Some(r)) => *x = r.rejected as f64,
-            (Role::ChannelFault(row), Some(r)) => *x = f64::from(u8::from(r.faulty[row])),
-            (Role::InputStatus(row), Some(r)) => {
-                *x = f64::from(status_value(r.statuses.get(row).copied().unwrap_or(RowOutcome::Missing)));
-            }
-            (Role::FilterHealthy, Some(r)) => *x = f64::from(u8::from(r.healthy)),
-            (Role::Smoothed(a), Some(r)) => {
-                *x = r.smoothed.map_or_else(|| r.belief.mean()[descriptor.smoothed_states[a]], |s| s.means[a]);
-            }
-            (Role::SmoothedStd(a), Some(r)) => {
-                let variance =
-                    r.smoothed.map_or_else(|| r.belief.variance(descriptor.smoothed_states[a]), |s| s.variances[a]);
-                *x = variance.max(0.0).sqrt();
-            }
-            (Role::SmoothedTime, Some(r)) => *x = r.smoothed.map_or_else(|| r.belief.time(), |s| s.time),
-            (Role::Derived(k), _) => *x = derived.get(k).copied().unwrap_or(f64::NAN),
-            (
-                Role::Estimate(_)
-                | Role::EstimateStd(_)
-                | Role::Nis
-                | Role::ProcessNoiseScale
-                | Role::Smoothed(_)
-                | Role::SmoothedStd(_)
-                | Role::SmoothedTime,
-                None,
-            ) => *x = f64::NAN,
-            (Role::FilterHealthy, None) => *x = 0.0,
-            _ => {}
-        }
-    }
-}
-
-/// Builds the filter an instance with these parameter values runs, its
-/// belief at `start_time` (also what tools that run an FMU's estimator on a log
-/// build: the tuning command).
-pub fn build_filter(
-    descriptor: &Descriptor,
-    values: &[f64],
-    start_time: f64,
-) -> Result<Box<dyn StateEstimator>, String> {
-    let p = Parameters::new(&descriptor.variables, values);
-    let kind = estimators::filter_kind(p.get("filter")?)?;
-    let sample_time = p.positive("sample_time")?;
-    let ukf = UnscentedParams { alpha: p.get("ukf_alpha")?, beta: p.get("ukf_beta")?, kappa: p.get("ukf_kappa")? };
-    let noise = (descriptor.build_noise)(&p, sample_time)?;
-    let mut filter = (descriptor.build_filter)(&p, kind, ukf, noise)?;
-    // Move the belief to the start time without touching its numbers.
-    let mut at_start = filter.snapshot();
-    at_start.time = start_time;
-    filter.restore(&at_start).map_err(|e| e.to_string())?;
-    Ok(filter)
-}
-
-/// Builds the supervisor an instance with these parameter values runs over a filter of
-/// `state_dim` states: the gate, the fault flags, the jumps and the adaptation as set.
-pub fn build_supervisor(descriptor: &Descriptor, values: &[f64], state_dim: usize) -> Result<Supervisor, String> {
-    let p = Parameters::new(&descriptor.variables, values);
-    let count = |name: &str| -> Result<u32, String> { Ok(p.get(name)? as u32) };
-    let settings = SupervisorSettings {
-        gate_probability: p.get("gate_probability")?,
-        fault_after: count("fault_after")?,
-        reacquire_after: count("reacquire_after")?,
-        stuck_after: count("stuck_after")?,
-        window: count("consistency_window")? as usize,
-        consistency_margin: p.get("consistency_margin")?,
-        max_inflation: p.get("max_inflation")?,
-        jumps: p.get("take_jumps")? != 0.0,
-        adaptation_window: count("adaptation_window")? as usize,
-        min_process_noise_scale: p.get("min_process_noise_scale")?,
-        max_process_noise_scale: p.get("max_process_noise_scale")?,
-        ..SupervisorSettings::default()
-    };
-    let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())
-        .and_then(|s| s.with_jump_states(state_dim, descriptor.unknown_inputs))
-        .map_err(|e| e.to_string())?;
-    if let Some(steps) = (descriptor.build_steps)(&p)? {
-        supervisor = supervisor.with_steps(steps).map_err(|e| e.to_string())?;
-    }
-    Ok(supervisor)
-}
-
-/// The estimation of an instance with these parameter values from `start_time`:
-/// the filter, its twin for reads, the grid and the input timing.
-/// `controls`: those standing at the start.
-pub(crate) fn build_estimation(
-    descriptor: &Descriptor,
-    values: &[f64],
-    start_time: f64,
-    controls: &[f64],
-) -> Result<Estimation, String> {
-    let p = Parameters::new(&descriptor.variables, values);
-    let timing = InputTiming::from_value(p.get("input_timing")?)?;
-    let sample_time = p.positive("sample_time")?;
-    let filter = build_filter(descriptor, values, start_time)?;
-    let n = filter.state_dim();
-    let supervisor = build_supervisor(descriptor, values, n)?;
-    let reader = build_filter(descriptor, values, start_time)?;
-    if filter.snapshot().input.len() != controls.len() {
-        return Err(format!(
-            "the model has {} known inputs, the FMU {} controls",
-            filter.snapshot().input.len(),
-            controls.len()
-        ));
-    }
-    let lag = smoothing_lag_samples(&p, sample_time, n, descriptor.smoothed_states.len())?;
-    let smoothing = (lag > 0).then_some((descriptor.smoothed_states, lag));
-    Estimation::new(filter, reader, start_time, sample_time, timing, supervisor, controls, smoothing)
-        .map_err(|e| e.to_string())
-}
-
-/// The most memory the fixed-lag smoother of an instance may hold (bytes).
-const MAX_SMOOTHING_MEMORY: f64 = 256.0 * 1024.0 * 1024.0;
-
-/// `smoothing_lag` in whole samples (at least one when it is not 0), refused
-/// when the smoother of `p` of the `n` states would hold more than
-/// [`MAX_SMOOTHING_MEMORY`].
-fn smoothing_lag_samples(p: &Parameters, sample_time: f64, n: usize, smoothed: usize) -> Result<usize, String> {
-    let lag = p.non_negative("smoothing_lag")?;
-    if lag == 0.0 {
-        return Ok(0);
-    }
-    let samples = (lag / sample_time).round().max(1.0);
-    let bytes = (samples + 1.0) * ((n + 2) * smoothed + 1) as f64 * 8.0;
-    if bytes > MAX_SMOOTHING_MEMORY {
-        return Err(format!(
-            "smoothing_lag = {lag} s is {samples} samples, whose smoother would hold {:.0} MiB (at most {:.0})",
-            bytes / 1048576.0,
-            MAX_SMOOTHING_MEMORY / 1048576.0
-        ));
-    }
-    Ok(samples as usize)
 }

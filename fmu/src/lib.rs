@@ -1,14 +1,15 @@
-//! The estimator FMUs' shared library: the 34 FMI 2.0 Co-Simulation functions
-//! as a thin C-ABI shell around the estimation library.
+//! The FMUs' shared library: the 34 FMI 2.0 Co-Simulation functions as a thin
+//! C-ABI shell around the estimation library (the estimator FMUs) and the truth
+//! simulators (the plant FMUs).
 //!
 //! Every function runs through one guard ([`with_instance`]): NULL check,
 //! the state mask of that function (an illegal call logs "illegal call
 //! sequence" and returns `fmi2Error`, the instance stays as it was), and
 //! `catch_unwind`, so no panic ever crosses the C ABI. Everything lives in the
-//! instance; the only static is the read-only table of estimators.
+//! instance; the only statics are read-only enumeration types.
 //!
-//! One binary serves every estimator FMU: `fmi2Instantiate` binds the instance
-//! to the estimator whose GUID it is given.
+//! One binary serves every FMU: `fmi2Instantiate` binds the instance to the
+//! estimator or plant whose GUID it is given (`catalogue.rs`).
 //!
 //! Safety: the exported functions are `unsafe extern "C"`: their contract is
 //! the FMI 2.0 standard (valid pointers for the given lengths, a component
@@ -21,12 +22,16 @@
 // The exported functions and C types are specified by the FMI 2.0 standard, not here.
 #![allow(missing_docs)]
 
+pub mod catalogue;
+pub mod estimating;
 pub mod estimators;
 pub mod ffi;
 pub mod input_timing_check;
 pub mod instance;
 pub mod model_description;
+pub mod plants;
 mod serialize;
+pub mod simulating;
 pub mod state;
 pub mod timing;
 pub mod variables;
@@ -53,11 +58,12 @@ fn with_instance(
     let instance = c.cast::<Instance>();
     // SAFETY: `c` came from fmi2Instantiate and is not freed (FMI contract); the
     // importer calls an instance from one thread at a time, so this is the only reference.
-    let allowed = unsafe { mask.allows((*instance).state) };
+    let allowed = unsafe { mask.allows((*instance).shell.state) };
     if !allowed {
         // SAFETY: as above.
         let inst = unsafe { &*instance };
-        return inst.error(&format!("{function}: illegal call sequence (not allowed in state {})", inst.state.name()));
+        return inst
+            .error(&format!("{function}: illegal call sequence (not allowed in state {})", inst.shell.state.name()));
     }
     // SAFETY: as above; the reference lives only inside the closure.
     let outcome = catch_unwind(AssertUnwindSafe(|| f(unsafe { &mut *instance })));
@@ -71,7 +77,7 @@ fn with_instance(
                 .unwrap_or_else(|| "unknown panic".into());
             // SAFETY: the closure's reference ended with the unwinding.
             let inst = unsafe { &mut *instance };
-            inst.state = ModelState::Terminated;
+            inst.shell.state = ModelState::Terminated;
             inst.error(&format!("{function}: internal error ({why}); the instance is terminated, reset or free it"))
         }
     }
@@ -191,9 +197,11 @@ pub unsafe extern "C" fn fmi2Instantiate(
             unsafe { log_early(&functions, instance_name, &message) };
             return ptr::null_mut();
         }
-        let Some(descriptor) = unsafe { string(guid) }.and_then(estimators::by_guid) else {
-            let known: Vec<String> =
-                estimators::all().iter().map(|d| format!("{} {}", d.model_identifier, d.guid())).collect();
+        let Some(fmu) = unsafe { string(guid) }.and_then(catalogue::by_guid) else {
+            let known: Vec<String> = catalogue::all()
+                .iter()
+                .map(|f| format!("{} {}", f.description().model_identifier(), f.description().guid()))
+                .collect();
             let message = format!(
                 "fmi2Instantiate: GUID {} is not one of this binary's FMUs ({})",
                 unsafe { string(guid) }.unwrap_or("(none)"),
@@ -203,7 +211,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             return ptr::null_mut();
         };
         let instance = Instance::new(
-            descriptor,
+            fmu,
             CString::new(name).unwrap_or_default(),
             functions.component_environment,
             functions.logger,
@@ -276,9 +284,7 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2Status {
     with_instance(c, "fmi2EnterInitializationMode", state::ENTER_INITIALIZATION_MODE, |inst| {
-        inst.state = ModelState::InitializationMode;
-        inst.time = inst.start_time;
-        inst.refresh_initial_outputs();
+        inst.enter_initialization();
         Fmi2Status::Ok
     })
 }
@@ -324,13 +330,13 @@ unsafe fn get_values<T>(
         };
         inst.refresh_outputs();
         for (slot, &r) in out.iter_mut().zip(vrs) {
-            let Some(var) = inst.descriptor.variables.get(r as usize) else {
+            let Some(var) = inst.variables().get(r as usize) else {
                 return inst.error(&format!("{function}: {}", inst.unknown(r)));
             };
             if !accepts(var.kind) {
                 return inst.error(&format!("{function}: variable {} (vr {r}) is {}", var.name, kind_name(var.kind)));
             }
-            *slot = convert(inst.values[r as usize]);
+            *slot = convert(inst.shell.values[r as usize]);
         }
         Fmi2Status::Ok
     })
@@ -357,7 +363,7 @@ unsafe fn set_values<T: Copy>(
                 Ok(i) => i,
                 Err(why) => return inst.error(&format!("{function}: {why}")),
             };
-            let var = &inst.descriptor.variables[index];
+            let var = &inst.variables()[index];
             if !accepts(var.kind) {
                 return inst.error(&format!("{function}: variable {} (vr {r}) is {}", var.name, kind_name(var.kind)));
             }
@@ -379,17 +385,18 @@ unsafe fn set_values<T: Copy>(
                     var.name
                 ));
             }
-            // A control is never missing (timing.rs, rule 7): the filter cannot predict without it.
-            if matches!(var.role, Role::Control(_)) && !x.is_finite() {
+            // A control is never missing (timing.rs, rule 7): the filter cannot predict
+            // without it; nor can a plant step without its inputs.
+            if matches!(var.role, Role::Control(_) | Role::PlantInput(_)) && !x.is_finite() {
                 return inst.error(&format!(
-                    "{function}: control {} (vr {r}) must be finite, got {x}; a control cannot be missing, the values are unchanged",
+                    "{function}: input {} (vr {r}) must be finite, got {x}; it drives the model and cannot be missing, the values are unchanged",
                     var.name
                 ));
             }
             updates.push((index, x));
         }
         let status = inst.set_values(&updates);
-        if status == Fmi2Status::Ok && inst.state == ModelState::InitializationMode {
+        if status == Fmi2Status::Ok && inst.shell.state == ModelState::InitializationMode {
             inst.refresh_initial_outputs();
         }
         status
@@ -516,18 +523,16 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, fmu_state: *mut Fmi2F
                 (*existing).0 = bytes;
             }
         }
-        inst.log(Fmi2Status::Ok, "logEvents", &format!("FMU state saved at t = {}", inst.time));
+        inst.log(Fmi2Status::Ok, "logEvents", &format!("FMU state saved at t = {}", inst.shell.time));
         Fmi2Status::Ok
     })
 }
 
 /// Restores a state's bytes into the instance, or says why not.
 fn restore(inst: &mut Instance, bytes: &[u8], function: &str) -> Fmi2Status {
-    let d = &inst.descriptor;
-    let parsed = serialize::parse(bytes, d.guid(), inst.values.len(), d.measurement_dim(), d.control_dim());
-    match parsed.and_then(|saved| serialize::apply(inst, saved)) {
+    match serialize::parse(bytes, inst).and_then(|saved| serialize::apply(inst, saved)) {
         Ok(()) => {
-            inst.log(Fmi2Status::Ok, "logEvents", &format!("FMU state restored at t = {}", inst.time));
+            inst.log(Fmi2Status::Ok, "logEvents", &format!("FMU state restored at t = {}", inst.shell.time));
             Fmi2Status::Ok
         }
         Err(why) => inst.error(&format!("{function}: {why}; the instance is unchanged")),
@@ -621,9 +626,7 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
         let Some(bytes) = (unsafe { slice(serialized.cast::<u8>(), size) }) else {
             return inst.error("fmi2DeSerializeFMUstate: serializedState is NULL");
         };
-        let d = &inst.descriptor;
-        let check = serialize::parse(bytes, d.guid(), inst.values.len(), d.measurement_dim(), d.control_dim());
-        if let Err(why) = check {
+        if let Err(why) = serialize::parse(bytes, inst) {
             return inst.error(&format!("fmi2DeSerializeFMUstate: {why}"));
         }
         // SAFETY: `fmu_state` is valid (checked); a non-NULL `*fmu_state` is ours.
@@ -720,7 +723,7 @@ pub unsafe extern "C" fn fmi2GetRealStatus(c: Fmi2Component, kind: Fmi2StatusKin
             return inst.error("fmi2GetRealStatus: value is NULL");
         }
         // SAFETY: valid (checked non-NULL, FMI contract).
-        unsafe { *value = inst.last_successful_time };
+        unsafe { *value = inst.shell.last_successful_time };
         Fmi2Status::Ok
     })
 }
@@ -751,7 +754,7 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(
         }
         // After a filter failure the slave cannot go on: it asks to terminate.
         // SAFETY: valid (checked non-NULL, FMI contract).
-        unsafe { *value = Fmi2Boolean::from(inst.state == ModelState::StepFailed) };
+        unsafe { *value = Fmi2Boolean::from(inst.asks_to_terminate()) };
         Fmi2Status::Ok
     })
 }

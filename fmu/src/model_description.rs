@@ -1,33 +1,35 @@
 //! Writes `modelDescription.xml` and `documentation/index.html` from an
-//! estimator's [`Descriptor`]. Written by hand because `fmi-schema` cannot
+//! FMU's description (an estimator's [`Descriptor`], a plant's [`PlantDescriptor`]). Written by hand because `fmi-schema` cannot
 //! write units, bounds or enumeration types; a test parses the result back
 //! with `fmi-schema` and compares it with the committed files.
 
 use std::fmt::Write as _;
 
+use crate::catalogue::FmuDescription;
 use crate::estimators::Descriptor;
 use crate::instance::LOG_CATEGORIES;
+use crate::plants::PlantDescriptor;
 use crate::variables::{Causality, Kind, Role, Variability, Variable, UNITS};
 
-/// The `modelDescription.xml` of an estimator FMU.
-pub fn model_description(d: &Descriptor) -> String {
+/// The `modelDescription.xml` of an FMU.
+pub fn model_description(d: &dyn FmuDescription) -> String {
     let mut x = String::new();
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         x,
         r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" generationTool="kalfmu {}" variableNamingConvention="flat" numberOfEventIndicators="0">"#,
-        esc(d.model_name),
+        esc(d.model_name()),
         d.guid(),
-        esc(d.description),
+        esc(d.description()),
         env!("CARGO_PKG_VERSION")
     );
     let _ = writeln!(
         x,
         r#"  <CoSimulation modelIdentifier="{}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="true"/>"#,
-        d.model_identifier
+        d.model_identifier()
     );
     x.push_str("  <UnitDefinitions>\n");
-    for unit in UNITS.iter().filter(|u| d.variables.iter().any(|v| v.unit == Some(u.name))) {
+    for unit in UNITS.iter().filter(|u| d.variables().iter().any(|v| v.unit == Some(u.name))) {
         let [kg, m, s, rad] = unit.exponents;
         let mut base = String::new();
         for (name, e) in [("kg", kg), ("m", m), ("s", s), ("rad", rad)] {
@@ -61,11 +63,11 @@ pub fn model_description(d: &Descriptor) -> String {
         let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, esc(description));
     }
     x.push_str("  </LogCategories>\n");
-    let e = d.default_experiment;
+    let e = d.default_experiment();
     let _ =
         writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, e.start, e.stop, e.step);
     x.push_str("  <ModelVariables>\n");
-    for (vr, v) in d.variables.iter().enumerate() {
+    for (vr, v) in d.variables().iter().enumerate() {
         let _ = writeln!(x, "    <!-- index {} -->", vr + 1);
         let initial = match v.causality {
             Causality::Output => r#" initial="calculated""#,
@@ -85,12 +87,13 @@ pub fn model_description(d: &Descriptor) -> String {
     }
     x.push_str("  </ModelVariables>\n  <ModelStructure>\n    <Outputs>\n");
     let indices = |causality: Causality| -> Vec<usize> {
-        d.variables.iter().enumerate().filter(|(_, v)| v.causality == causality).map(|(i, _)| i + 1).collect()
+        d.variables().iter().enumerate().filter(|(_, v)| v.causality == causality).map(|(i, _)| i + 1).collect()
     };
     let outputs = indices(Causality::Output);
-    // Every output is the estimate given the measurements up to the time it is
-    // read, so it depends on every input of that time: direct feedthrough (the
-    // controls too, through the observation h(x, u) of the update at that time).
+    // An estimator's every output is the estimate given the measurements up to the
+    // time it is read, so it depends on every input of that time: direct feedthrough
+    // (the controls too, through the observation h(x, u) of the update at that time).
+    // A plant's outputs are those of the time read, under the inputs held from then.
     let inputs: Vec<String> = indices(Causality::Input).iter().map(usize::to_string).collect();
     for i in &outputs {
         let _ = writeln!(x, r#"      <Unknown index="{i}" dependencies="{}"/>"#, inputs.join(" "));
@@ -304,17 +307,17 @@ pub fn mentioned_variables(text: &str) -> impl Iterator<Item = &str> {
 /// # Panics
 /// If a name is neither in `computed` nor one of `d`'s variables with a start value:
 /// [`crate::estimators::check`] rejects such an estimator documentation.
-fn expand(text: &str, d: &Descriptor, computed: &[(&str, &str)]) -> String {
+fn expand(text: &str, d: &dyn FmuDescription, computed: &[(&str, &str)]) -> String {
     let mut out = String::with_capacity(text.len() + 256);
     let mut rest = text;
     while let Some((before, after)) = rest.split_once('{') {
         out.push_str(before);
-        let (name, tail) = after.split_once('}').unwrap_or_else(|| panic!("unclosed '{{' in {}", d.model_identifier));
+        let (name, tail) = after.split_once('}').unwrap_or_else(|| panic!("unclosed '{{' in {}", d.model_identifier()));
         if let Some((_, phrase)) = computed.iter().find(|(key, _)| *key == name) {
             out.push_str(phrase);
         } else {
-            let v = d.variables.iter().find(|v| v.name == name && v.start.is_some()).unwrap_or_else(|| {
-                panic!("the documentation of {} names no parameter or input {name}", d.model_identifier)
+            let v = d.variables().iter().find(|v| v.name == name && v.start.is_some()).unwrap_or_else(|| {
+                panic!("the documentation of {} names no parameter or input {name}", d.model_identifier())
             });
             out.push_str(&with_default(v));
         }
@@ -422,6 +425,39 @@ pub fn documentation(d: &Descriptor) -> String {
     } else {
         String::new()
     };
+    let mut h = page_head(d, &expand(d.documentation, d, &[]));
+    let _ = write!(
+        h,
+        "<h2>Time: which measurement, which estimate</h2>\n{timing}\n{controls}\
+         <h2>Smoothed outputs</h2>\n{smoothing}\
+         <h2>Gross errors, faults and health</h2>\n{supervision}\n\
+         <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
+         fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
+         The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free and restores exactly in a new instance.</p>\n",
+        timing = expand(TIMING, d, &[]),
+        smoothing = expand(SMOOTHING, d, &[]),
+        supervision = expand(SUPERVISION, d, &[("gate_sigmas", &gate_sigmas_phrase(d))]),
+    );
+    variable_tables(&mut h, &d.variables);
+    h
+}
+
+/// `documentation/index.html` of a plant: what it is, and a table of every variable.
+/// Every default the text states is written from the variable's start value.
+pub fn plant_documentation(d: &PlantDescriptor) -> String {
+    let mut h = page_head(d, &expand(d.documentation, d, &[]));
+    h.push_str(
+        "<p>Its inputs are held from the communication point they are set at over the step; its outputs are \
+         those of the time read, under the inputs standing then (direct feedthrough). Every parameter is fixed \
+         at fmi2ExitInitializationMode. The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free \
+         and restores exactly in a new instance: the plant and its noise stream.</p>\n",
+    );
+    variable_tables(&mut h, &d.variables);
+    h
+}
+
+/// The page's head, title and first section (`study`, HTML).
+fn page_head(d: &dyn FmuDescription, study: &str) -> String {
     let mut h = String::new();
     let _ = write!(
         h,
@@ -429,22 +465,17 @@ pub fn documentation(d: &Descriptor) -> String {
          <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto}}table{{border-collapse:collapse}}\
          td,th{{border:1px solid #ccc;padding:0.2em 0.5em;text-align:left}}</style></head><body>\n\
          <h1>{name}</h1>\n<p>{description}. FMI 2.0 Co-Simulation, model identifier <code>{id}</code>, GUID <code>{guid}</code>.</p>\n\
-         <h2>The study</h2>\n{doc}\n\
-         <h2>Time: which measurement, which estimate</h2>\n{timing}\n{controls}\
-         <h2>Smoothed outputs</h2>\n{smoothing}\
-         <h2>Gross errors, faults and health</h2>\n{supervision}\n\
-         <p>Fixed parameters (the model, the filter method, the prior, the sample time) can be set until \
-         fmi2ExitInitializationMode; tunable parameters (the noise) also between steps, and take effect from the next read or step. \
-         The FMU state (fmi2GetFMUstate, fmi2SerializeFMUstate) is pointer-free and restores exactly in a new instance.</p>\n",
-        name = esc(d.model_name),
-        description = esc(d.description),
-        id = d.model_identifier,
+         <h2>The study</h2>\n{study}\n",
+        name = esc(d.model_name()),
+        description = esc(d.description()),
+        id = d.model_identifier(),
         guid = d.guid(),
-        doc = expand(d.documentation, d, &[]),
-        timing = expand(TIMING, d, &[]),
-        smoothing = expand(SMOOTHING, d, &[]),
-        supervision = expand(SUPERVISION, d, &[("gate_sigmas", &gate_sigmas_phrase(d))]),
     );
+    h
+}
+
+/// The tables of inputs, outputs and parameters, and the log categories; closes the page.
+fn variable_tables(h: &mut String, variables: &[Variable]) {
     for (title, causality) in
         [("Inputs", Causality::Input), ("Outputs", Causality::Output), ("Parameters", Causality::Parameter)]
     {
@@ -453,7 +484,7 @@ pub fn documentation(d: &Descriptor) -> String {
             h.push_str("<th>variability</th><th>start</th>");
         }
         h.push_str("<th>description</th></tr>\n");
-        for (vr, v) in d.variables.iter().enumerate().filter(|(_, v)| v.causality == causality) {
+        for (vr, v) in variables.iter().enumerate().filter(|(_, v)| v.causality == causality) {
             let kind = match v.kind {
                 Kind::Real => "Real".to_string(),
                 Kind::Integer => "Integer".to_string(),
@@ -483,7 +514,6 @@ pub fn documentation(d: &Descriptor) -> String {
         let _ = writeln!(h, "<li><code>{name}</code>: {}</li>", esc(description));
     }
     h.push_str("</ul>\n</body></html>\n");
-    h
 }
 
 #[cfg(test)]

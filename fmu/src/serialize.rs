@@ -4,16 +4,20 @@
 //! ```text
 //! "KALFMUS\0"  format version (u32)  GUID (u32 length + UTF-8)
 //! state (u8)  time, start time (f64)  stop time present (u8) + f64
-//! last successful time (f64)  off-grid reported (u8)  inputs set at this point (u8)
+//! last successful time (f64)
 //! values (u32 count + f64 each)
-//! per input channel (u32 count, then each): ever set (u8)  missing reported (u8)
-//! input timing check: phase (u8), per input channel (as many): compared (u8)  kept value (f64)
-//! estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
-//!                           supervisor memory (u32 count + u64 each)
-//!                           controls in force (u32 count + f64 each)
-//!                           input statuses of the latest update (u32 count + u8 InputStatus value each)
-//!                           kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each)
-//!                           smoothing (u32 count + f64 each) ]
+//! then an estimator's:
+//!   off-grid reported (u8)  inputs set at this point (u8)
+//!   per input channel (u32 count, then each): ever set (u8)  missing reported (u8)
+//!   input timing check: phase (u8), per input channel (as many): compared (u8)  kept value (f64)
+//!   estimation present (u8) [ samples (u64)  measured (u8)  skipped (u64)  NIS (f64)
+//!                             supervisor memory (u32 count + u64 each)
+//!                             controls in force (u32 count + f64 each)
+//!                             input statuses of the latest update (u32 count + u8 InputStatus value each)
+//!                             kind (u8)  time (f64)  input, mean, covariance (u32 count + f64 each)
+//!                             smoothing (u32 count + f64 each) ]
+//! or a plant's:
+//!   plant present (u8) [ the plant's own bytes (u32 length + bytes, `Plant::save`) ]
 //! ```
 //!
 //! All numbers little-endian. Version 4 added the controls in force (the
@@ -27,50 +31,68 @@
 //! (`input_timing_check.rs`: where it is, and the inputs set in
 //! initialisation mode it compares the first steps' with); version 10 adds the
 //! smoothing (`estimator::SupervisedFilter::save_smoothing`: the open step and
-//! the fixed-lag smoother's instants; empty when `smoothing_lag` is 0). The filter and
-//! its twin for reads are rebuilt from the parameter values and the belief
-//! restored from the snapshot; the outputs are computed afresh at the next
-//! read, from exactly that.
+//! the fixed-lag smoother's instants; empty when `smoothing_lag` is 0); version
+//! 11 splits the shell's part from the behaviour's, for the plant FMUs. The
+//! filter and its twin for reads, or the plant, are rebuilt from the parameter
+//! values and their state restored; the outputs are computed afresh at the
+//! next read, from exactly that.
 
 use estimator::{FilterKind, Snapshot};
 
+use crate::estimating::Estimating;
 use crate::estimators::{status_outcome, status_value};
 use crate::input_timing_check::Phase;
-use crate::instance::Instance;
+use crate::instance::{Behaviour, Instance};
+use crate::simulating::Simulating;
 use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
 
 const MAGIC: &[u8; 8] = b"KALFMUS\0";
-const VERSION: u32 = 10;
+const VERSION: u32 = 11;
 
 /// Serialises the instance's state. Reads nothing it would change: saving
 /// leaves every later output as it would have been.
 pub fn save(instance: &Instance) -> Vec<u8> {
-    let mut w = Writer(Vec::with_capacity(128 + 8 * instance.values.len()));
+    let shell = &instance.shell;
+    let mut w = Writer(Vec::with_capacity(128 + 8 * shell.values.len()));
     w.0.extend_from_slice(MAGIC);
     w.u32(VERSION);
-    w.bytes(instance.descriptor.guid().as_bytes());
-    w.u8(instance.state as u8);
-    w.f64(instance.time);
-    w.f64(instance.start_time);
-    w.u8(u8::from(instance.stop_time.is_some()));
-    w.f64(instance.stop_time.unwrap_or(0.0));
-    w.f64(instance.last_successful_time);
-    w.u8(u8::from(instance.off_grid_reported));
-    w.u8(u8::from(instance.inputs_set));
-    w.f64s(&instance.values);
-    w.u32(instance.input_ever_set.len() as u32);
-    for (&set, &reported) in instance.input_ever_set.iter().zip(&instance.missing_reported) {
+    w.bytes(instance.guid().as_bytes());
+    w.u8(shell.state as u8);
+    w.f64(shell.time);
+    w.f64(shell.start_time);
+    w.u8(u8::from(shell.stop_time.is_some()));
+    w.f64(shell.stop_time.unwrap_or(0.0));
+    w.f64(shell.last_successful_time);
+    w.f64s(&shell.values);
+    match &instance.behaviour {
+        Behaviour::Estimator(e) => save_estimator(&mut w, e),
+        Behaviour::Plant(p) => match &p.plant {
+            None => w.u8(0),
+            Some(plant) => {
+                w.u8(1);
+                w.bytes(&plant.save());
+            }
+        },
+    }
+    w.0
+}
+
+fn save_estimator(w: &mut Writer, e: &Estimating) {
+    w.u8(u8::from(e.off_grid_reported));
+    w.u8(u8::from(e.inputs_set));
+    w.u32(e.input_ever_set.len() as u32);
+    for (&set, &reported) in e.input_ever_set.iter().zip(&e.missing_reported) {
         w.u8(u8::from(set));
         w.u8(u8::from(reported));
     }
-    let (phase, compared, kept) = instance.timing_check.saved();
+    let (phase, compared, kept) = e.timing_check.saved();
     w.u8(phase.tag());
     for (&c, &x) in compared.iter().zip(kept) {
         w.u8(u8::from(c));
         w.f64(x);
     }
-    match instance.estimation.as_ref().map(Estimation::progress) {
+    match e.estimation.as_ref().map(Estimation::progress) {
         None => w.u8(0),
         Some(p) => {
             w.u8(1);
@@ -95,7 +117,6 @@ pub fn save(instance: &Instance) -> Vec<u8> {
             w.f64s(&p.smoothing);
         }
     }
-    w.0
 }
 
 /// The parts of a saved state, checked against the instance it is for.
@@ -105,9 +126,20 @@ pub struct Saved {
     start_time: f64,
     stop_time: Option<f64>,
     last_successful_time: f64,
+    values: Vec<f64>,
+    behaviour: SavedBehaviour,
+}
+
+/// The behaviour's part of a saved state.
+enum SavedBehaviour {
+    Estimator(Box<SavedEstimator>),
+    /// The plant's own bytes, once it is built.
+    Plant(Option<Vec<u8>>),
+}
+
+struct SavedEstimator {
     off_grid_reported: bool,
     inputs_set: bool,
-    values: Vec<f64>,
     input_ever_set: Vec<bool>,
     missing_reported: Vec<bool>,
     check_phase: Phase,
@@ -116,9 +148,9 @@ pub struct Saved {
     progress: Option<Progress>,
 }
 
-/// Parses and checks a saved state for an instance of `guid` with
-/// `n_values` variables, `m` measurement channels and `k` controls.
-pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> Result<Saved, String> {
+/// Parses a saved state and checks it against `instance`: its GUID, its number
+/// of variables, and for an estimator its measurement channels and controls.
+pub fn parse(bytes: &[u8], instance: &Instance) -> Result<Saved, String> {
     let mut r = Reader { bytes, at: 0 };
     if r.take(8)? != MAGIC {
         return Err("not a kalfmu FMU state (bad magic)".into());
@@ -128,7 +160,7 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
         return Err(format!("FMU state format version {version}, this FMU reads version {VERSION}"));
     }
     let saved_guid = r.bytes()?;
-    if saved_guid != guid.as_bytes() {
+    if saved_guid != instance.guid().as_bytes() {
         return Err(format!("FMU state of another FMU (GUID {})", String::from_utf8_lossy(saved_guid)));
     }
     let state = ModelState::from_tag(r.u8()?).ok_or("bad model state tag")?;
@@ -139,11 +171,48 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
     }
     let (time, start_time) = (r.f64()?, r.f64()?);
     let (has_stop, stop) = (r.u8()?, r.f64()?);
-    let (last_successful_time, off_grid_reported, inputs_set) = (r.f64()?, r.u8()? != 0, r.u8()? != 0);
+    let last_successful_time = r.f64()?;
     let values = r.f64s()?;
+    let n_values = instance.shell.values.len();
     if values.len() != n_values {
         return Err(format!("FMU state has {} values, the FMU has {n_values} variables", values.len()));
     }
+    let (behaviour, running) = match &instance.behaviour {
+        Behaviour::Estimator(e) => {
+            let d = &e.descriptor;
+            let saved = parse_estimator(&mut r, d.measurement_dim(), d.control_dim())?;
+            let running = saved.progress.is_some();
+            (SavedBehaviour::Estimator(Box::new(saved)), running)
+        }
+        Behaviour::Plant(_) => {
+            let plant = match r.u8()? {
+                0 => None,
+                _ => Some(r.bytes()?.to_vec()),
+            };
+            let running = plant.is_some();
+            (SavedBehaviour::Plant(plant), running)
+        }
+    };
+    if r.at != bytes.len() {
+        return Err(format!("{} trailing bytes after the FMU state", bytes.len() - r.at));
+    }
+    if !running && matches!(state, ModelState::StepComplete | ModelState::StepFailed) {
+        return Err(format!("FMU state in {} without a filter or plant", state.name()));
+    }
+    Ok(Saved {
+        state,
+        time,
+        start_time,
+        stop_time: (has_stop != 0).then_some(stop),
+        last_successful_time,
+        values,
+        behaviour,
+    })
+}
+
+/// An estimator's part, for `m` measurement channels and `k` controls.
+fn parse_estimator(r: &mut Reader<'_>, m: usize, k: usize) -> Result<SavedEstimator, String> {
+    let (off_grid_reported, inputs_set) = (r.u8()? != 0, r.u8()? != 0);
     let n_inputs = r.u32()? as usize;
     if n_inputs != m {
         return Err(format!("FMU state has {n_inputs} input channels, the FMU has {m}"));
@@ -189,21 +258,9 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
             Some(Progress { samples, measured, skipped, nis, supervisor, controls, statuses, belief, smoothing })
         }
     };
-    if r.at != bytes.len() {
-        return Err(format!("{} trailing bytes after the FMU state", bytes.len() - r.at));
-    }
-    if progress.is_none() && matches!(state, ModelState::StepComplete | ModelState::StepFailed) {
-        return Err(format!("FMU state in {} without a filter", state.name()));
-    }
-    Ok(Saved {
-        state,
-        time,
-        start_time,
-        stop_time: (has_stop != 0).then_some(stop),
-        last_successful_time,
+    Ok(SavedEstimator {
         off_grid_reported,
         inputs_set,
-        values,
         input_ever_set,
         missing_reported,
         check_phase,
@@ -213,36 +270,57 @@ pub fn parse(bytes: &[u8], guid: &str, n_values: usize, m: usize, k: usize) -> R
     })
 }
 
-/// Applies a parsed state: the filters are rebuilt from the saved parameters
-/// and the belief restored. On error the instance is unchanged.
+/// Applies a parsed state: the filters or the plant are rebuilt from the saved
+/// parameters and their state restored. On error the instance is unchanged.
 pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
-    let mut timing_check = instance.timing_check.clone();
+    match (&mut instance.behaviour, saved.behaviour) {
+        (Behaviour::Estimator(e), SavedBehaviour::Estimator(s)) => {
+            apply_estimator(e, *s, &saved.values, saved.start_time)?
+        }
+        (Behaviour::Plant(p), SavedBehaviour::Plant(s)) => apply_plant(p, s.as_deref(), &saved.values)?,
+        _ => return Err("FMU state of another kind of FMU".into()),
+    }
+    let shell = &mut instance.shell;
+    shell.state = saved.state;
+    shell.time = saved.time;
+    shell.start_time = saved.start_time;
+    shell.stop_time = saved.stop_time;
+    shell.last_successful_time = saved.last_successful_time;
+    shell.values = saved.values;
+    Ok(())
+}
+
+fn apply_estimator(e: &mut Estimating, saved: SavedEstimator, values: &[f64], start_time: f64) -> Result<(), String> {
+    let mut timing_check = e.timing_check.clone();
     timing_check.restore(saved.check_phase, &saved.check_compared, &saved.check_row)?;
     let estimation = match &saved.progress {
         None => None,
         Some(progress) => {
-            let fresh = crate::instance::build_estimation(
-                &instance.descriptor,
-                &saved.values,
-                saved.start_time,
-                &progress.controls,
-            )?;
+            let fresh = crate::estimating::build_estimation(&e.descriptor, values, start_time, &progress.controls)?;
             Some(fresh.resume(progress).map_err(|e| format!("cannot restore the filter: {e}"))?)
         }
     };
-    instance.state = saved.state;
-    instance.time = saved.time;
-    instance.start_time = saved.start_time;
-    instance.stop_time = saved.stop_time;
-    instance.last_successful_time = saved.last_successful_time;
-    instance.off_grid_reported = saved.off_grid_reported;
-    instance.inputs_set = saved.inputs_set;
-    instance.values = saved.values;
-    instance.input_ever_set = saved.input_ever_set;
-    instance.missing_reported = saved.missing_reported;
-    instance.timing_check = timing_check;
-    instance.estimation = estimation;
-    instance.mark_outputs_stale();
+    e.off_grid_reported = saved.off_grid_reported;
+    e.inputs_set = saved.inputs_set;
+    e.input_ever_set = saved.input_ever_set;
+    e.missing_reported = saved.missing_reported;
+    e.timing_check = timing_check;
+    e.estimation = estimation;
+    e.mark_outputs_stale();
+    Ok(())
+}
+
+fn apply_plant(p: &mut Simulating, saved: Option<&[u8]>, values: &[f64]) -> Result<(), String> {
+    let plant = match saved {
+        None => None,
+        Some(bytes) => {
+            let mut plant = p.build(values).map_err(|why| format!("cannot rebuild the plant: {why}"))?;
+            plant.restore(bytes).map_err(|why| format!("cannot restore the plant: {why}"))?;
+            Some(plant)
+        }
+    };
+    p.plant = plant;
+    p.mark_outputs_stale();
     Ok(())
 }
 

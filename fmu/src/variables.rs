@@ -94,6 +94,11 @@ pub enum Role {
     SmoothedStd(usize),
     /// Output: the time the smoothed estimates describe.
     SmoothedTime,
+    /// Input of a plant: its input `j` (`crate::plants::Plant::set_input`), held
+    /// from the communication point it is set at over the step.
+    PlantInput(usize),
+    /// Output of a plant: its output `k` (`crate::plants::Plant::outputs`).
+    PlantOutput(usize),
 }
 
 /// One scalar variable.
@@ -237,6 +242,26 @@ impl Variable {
     pub fn is_settable(&self) -> bool {
         self.causality != Causality::Output
     }
+}
+
+/// Checks what every table must be: unique names, and causality, variability and
+/// start value in a combination FMI allows.
+pub fn check_table(variables: &[Variable]) -> Result<(), String> {
+    for (i, v) in variables.iter().enumerate() {
+        if variables[..i].iter().any(|w| w.name == v.name) {
+            return Err(format!("duplicate variable name {}", v.name));
+        }
+        let ok = matches!(
+            (v.causality, v.variability, v.start.is_some()),
+            (Causality::Parameter, Variability::Fixed | Variability::Tunable, true)
+                | (Causality::Input, Variability::Continuous | Variability::Discrete, true)
+                | (Causality::Output, Variability::Continuous | Variability::Discrete, false)
+        );
+        if !ok {
+            return Err(format!("variable {} has an illegal causality/variability/start combination", v.name));
+        }
+    }
+    Ok(())
 }
 
 /// A unit and its exponents of the base units `kg, m, s, rad`.

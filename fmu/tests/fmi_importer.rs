@@ -40,18 +40,19 @@
 //!   outputs on S4's telegrams: `rejected` at exactly the spike (its fault flag
 //!   false), `stuck` on the resend, `missing` on the dropout, `used` elsewhere.
 //!
-//! The FMUs are packaged in-process the way `package-fmus` does it, from the
+//! The FMUs are packaged in-process the way `package-fmus` does it (`support/packaged.rs`), from the
 //! `libkalfmu_fmu.so` that cargo builds for this very test run (under
 //! `cargo test` the cdylib is only in `target/<profile>/deps/`). Set
 //! `KALFMU_FMU_DIR=path/to/dir` (holding `<modelIdentifier>.fmu`, as
 //! `package-fmus --out` writes them) to test released FMUs instead.
 #![cfg(target_os = "linux")]
 
+mod support {
+    pub mod packaged;
+}
+
 use std::collections::HashMap;
-use std::fs::{self, File};
-use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::path::PathBuf;
 
 use estimator::models::{
     Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, PiecewiseLinear, PrwTrain, RollVehicle, VerticalVehicle,
@@ -65,57 +66,17 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
 use fmi::traits::{FmiImport, FmiInstance, FmiStatus};
 use kalfmu_fmu::estimators::{self, Descriptor};
-use kalfmu_fmu::model_description::{documentation, model_description};
 use kalfmu_fmu::variables::Role;
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use support::packaged;
 
 const SAMPLES: usize = 1000;
 
-/// The `.fmu` of `model` under test: in `KALFMU_FMU_DIR`, or packaged once per
-/// test process (under a lock: the tests run in parallel).
+/// The `.fmu` of `model` under test (`support/packaged.rs`).
 fn fmu_path(model: &str) -> PathBuf {
-    static PACKAGED: Mutex<Vec<(String, PathBuf)>> = Mutex::new(Vec::new());
-    if let Some(dir) = std::env::var_os("KALFMU_FMU_DIR") {
-        return Path::new(&dir).join(format!("{model}.fmu"));
-    }
-    let mut packaged = PACKAGED.lock().expect("the packaged FMUs");
-    if let Some((_, path)) = packaged.iter().find(|(m, _)| m == model) {
-        return path.clone();
-    }
-    let path = package(model);
-    packaged.push((model.to_owned(), path.clone()));
-    path
-}
-
-/// Writes `<model>.fmu` with the layout `package-fmus` writes; stored rather
-/// than deflated (deflating a 10 MB debug library in a debug build takes
-/// seconds; importers read both).
-fn package(model: &str) -> PathBuf {
-    let exe = std::env::current_exe().expect("the test executable's path");
-    let deps = exe.parent().expect("the test executable is in target/<profile>/deps");
-    let library = deps.join("libkalfmu_fmu.so");
-    let binary = fs::read(&library)
-        .unwrap_or_else(|e| panic!("{}: {e} (cargo builds the cdylib next to the test executable)", library.display()));
-    let d = descriptor(model);
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fmi_importer");
-    fs::create_dir_all(&dir).expect("a directory for the packaged FMU");
-    let path = dir.join(format!("{model}.fmu"));
-    let mut zip = zip::ZipWriter::new(File::create(&path).expect("the .fmu file"));
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-    let (xml, html) = (model_description(&d), documentation(&d));
-    let entries: [(String, &[u8]); 3] = [
-        ("modelDescription.xml".into(), xml.as_bytes()),
-        (format!("binaries/linux64/{model}.so"), &binary),
-        ("documentation/index.html".into(), html.as_bytes()),
-    ];
-    for (name, bytes) in entries {
-        zip.start_file(name.as_str(), options).expect("a zip entry");
-        zip.write_all(bytes).expect("the zip entry's bytes");
-    }
-    zip.finish().expect("the finished .fmu");
-    path
+    packaged::fmu_path(model, "fmi_importer")
 }
 
 fn descriptor(model: &str) -> Descriptor {

@@ -25,69 +25,31 @@
 //! `fmu/tests/fmi_importer.rs` does it (or taken from `KALFMU_FMU_DIR`).
 #![cfg(target_os = "linux")]
 
+mod support {
+    pub mod packaged;
+}
+
 use std::collections::HashMap;
-use std::fs::{self, File};
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::{LazyLock, Mutex, Once};
 
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
 use fmi::traits::{FmiImport, FmiInstance, FmiStatus};
 use kalfmu_fmu::estimators::{self, Descriptor};
-use kalfmu_fmu::model_description::{documentation, model_description};
 use kalfmu_fmu::variables::Role;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use support::packaged;
 
 /// Communication steps per run.
 const STEPS: usize = 300;
 
 // ----- the packaged FMU (as fmi_importer.rs finds it) -----
 
-/// The `.fmu` of `model` under test: in `KALFMU_FMU_DIR`, or packaged once per
-/// test process (under a lock: the tests run in parallel).
+/// The `.fmu` of `model` under test (`support/packaged.rs`).
 fn fmu_path(model: &str) -> PathBuf {
-    static PACKAGED: Mutex<Vec<(String, PathBuf)>> = Mutex::new(Vec::new());
-    if let Some(dir) = std::env::var_os("KALFMU_FMU_DIR") {
-        return Path::new(&dir).join(format!("{model}.fmu"));
-    }
-    let mut packaged = PACKAGED.lock().expect("the packaged FMUs");
-    if let Some((_, path)) = packaged.iter().find(|(m, _)| m == model) {
-        return path.clone();
-    }
-    let path = package(model);
-    packaged.push((model.to_owned(), path.clone()));
-    path
-}
-
-/// Writes `<model>.fmu` with the layout `package-fmus` writes, from the
-/// `libkalfmu_fmu.so` cargo built for this test run, into a directory of this
-/// test binary's own (the other test binaries may write theirs meanwhile).
-fn package(model: &str) -> PathBuf {
-    let exe = std::env::current_exe().expect("the test executable's path");
-    let deps = exe.parent().expect("the test executable is in target/<profile>/deps");
-    let library = deps.join("libkalfmu_fmu.so");
-    let binary = fs::read(&library)
-        .unwrap_or_else(|e| panic!("{}: {e} (cargo builds the cdylib next to the test executable)", library.display()));
-    let d = descriptor(model);
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("input_timing_check");
-    fs::create_dir_all(&dir).expect("a directory for the packaged FMU");
-    let path = dir.join(format!("{model}.fmu"));
-    let mut zip = zip::ZipWriter::new(File::create(&path).expect("the .fmu file"));
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-    let (xml, html) = (model_description(&d), documentation(&d));
-    let entries: [(String, &[u8]); 3] = [
-        ("modelDescription.xml".into(), xml.as_bytes()),
-        (format!("binaries/linux64/{model}.so"), &binary),
-        ("documentation/index.html".into(), html.as_bytes()),
-    ];
-    for (name, bytes) in entries {
-        zip.start_file(name.as_str(), options).expect("a zip entry");
-        zip.write_all(bytes).expect("the zip entry's bytes");
-    }
-    zip.finish().expect("the finished .fmu");
-    path
+    packaged::fmu_path(model, "input_timing_check")
 }
 
 fn descriptor(model: &str) -> Descriptor {

@@ -7,8 +7,8 @@
 use std::collections::HashMap;
 
 use fmi_schema::fmi2::{Causality, Fmi2ModelDescription, ScalarVariableElement};
-use kalfmu_fmu::estimators;
-use kalfmu_fmu::model_description::{documentation, model_description};
+use kalfmu_fmu::catalogue::{self, Fmu};
+use kalfmu_fmu::model_description::model_description;
 use kalfmu_fmu::variables::{self, Kind};
 
 fn committed(identifier: &str) -> String {
@@ -21,28 +21,30 @@ fn committed(identifier: &str) -> String {
 
 #[test]
 fn committed_model_descriptions_are_what_the_table_generates() {
-    for d in &estimators::all() {
+    for fmu in &catalogue::all() {
+        let d = fmu.description();
         assert!(
-            committed(d.model_identifier) == model_description(d),
+            committed(d.model_identifier()) == model_description(d),
             "modelDescription/{}/modelDescription.xml is stale: regenerate it with \
              `cargo run --release -p fmu --bin package-fmus -- --write-model-descriptions`",
-            d.model_identifier
+            d.model_identifier()
         );
     }
 }
 
 #[test]
 fn fmi_schema_reads_back_the_guid_the_value_references_and_the_causalities() {
-    for d in &estimators::all() {
-        estimators::check(d).unwrap();
-        let md: Fmi2ModelDescription = fmi_schema::deserialize(&committed(d.model_identifier)).unwrap();
+    for fmu in &catalogue::all() {
+        let d = fmu.description();
+        d.check().unwrap();
+        let md: Fmi2ModelDescription = fmi_schema::deserialize(&committed(d.model_identifier())).unwrap();
         assert_eq!(md.fmi_version, "2.0");
         assert_eq!(md.guid, d.guid());
-        assert_eq!(md.co_simulation.as_ref().unwrap().model_identifier, d.model_identifier);
+        assert_eq!(md.co_simulation.as_ref().unwrap().model_identifier, d.model_identifier());
         assert!(md.model_exchange.is_none(), "Co-Simulation only");
         let vars: Vec<_> = md.get_model_variables().collect();
-        assert_eq!(vars.len(), d.variables.len());
-        for (vr, (parsed, ours)) in vars.iter().zip(&d.variables).enumerate() {
+        assert_eq!(vars.len(), d.variables().len());
+        for (vr, (parsed, ours)) in vars.iter().zip(d.variables()).enumerate() {
             assert_eq!(parsed.name, ours.name);
             assert_eq!(parsed.value_reference as usize, vr, "{}", ours.name);
             let causality = match ours.causality {
@@ -65,7 +67,7 @@ fn fmi_schema_reads_back_the_guid_the_value_references_and_the_causalities() {
         }
         let outputs: Vec<u32> = md.model_structure.outputs.unknowns.iter().map(|u| u.index).collect();
         let expected: Vec<u32> = d
-            .variables
+            .variables()
             .iter()
             .enumerate()
             .filter(|(_, v)| v.causality == variables::Causality::Output)
@@ -74,7 +76,7 @@ fn fmi_schema_reads_back_the_guid_the_value_references_and_the_causalities() {
         assert_eq!(outputs, expected, "<Outputs> must list every output once, in order");
         let declared: Vec<String> =
             md.unit_definitions.as_ref().map(|u| u.units.iter().map(|u| u.name.clone()).collect()).unwrap_or_default();
-        for v in &d.variables {
+        for v in d.variables() {
             if let Some(unit) = v.unit {
                 assert!(declared.iter().any(|n| n == unit), "unit {unit} of {} is not declared", v.name);
             }
@@ -83,12 +85,14 @@ fn fmi_schema_reads_back_the_guid_the_value_references_and_the_causalities() {
 }
 
 #[test]
-fn every_estimator_is_found_by_its_guid_and_only_by_it() {
-    for d in &estimators::all() {
+fn every_fmu_is_found_by_its_guid_and_only_by_it() {
+    for fmu in &catalogue::all() {
+        let d = fmu.description();
         assert_eq!(d.guid().len(), 38, "{{8-4-4-4-12}}");
-        assert_eq!(estimators::by_guid(d.guid()).unwrap().model_identifier, d.model_identifier);
+        let found = catalogue::by_guid(d.guid()).unwrap();
+        assert_eq!(found.description().model_identifier(), d.model_identifier());
     }
-    assert!(estimators::by_guid("{00000000-0000-0000-0000-000000000000}").is_none());
+    assert!(catalogue::by_guid("{00000000-0000-0000-0000-000000000000}").is_none());
 }
 
 /// The supervisor's parameters, whose defaults differ between the FMUs (S4 takes a
@@ -212,36 +216,38 @@ fn prose(html: &str) -> String {
 
 #[test]
 fn every_default_the_shipped_texts_state_is_the_start_value_in_the_model_description() {
-    for d in &estimators::all() {
-        let xml = committed(d.model_identifier);
+    for fmu in &catalogue::all() {
+        let d = fmu.description();
+        let xml = committed(d.model_identifier());
         let starts = start_values(&xml);
-        let html = documentation(d);
+        let html = d.documentation_page();
         let mut checked = HashMap::<&str, Vec<String>>::new();
         let texts = std::iter::once(("documentation/index.html", html)).chain(
             description_attributes(&xml).into_iter().map(|description| ("a description attribute", description)),
         );
         for (source, text) in texts {
             for stated in stated_defaults(&text) {
-                let (name, value) = stated.unwrap_or_else(|e| panic!("{} {source}: {e}", d.model_identifier));
+                let (name, value) = stated.unwrap_or_else(|e| panic!("{} {source}: {e}", d.model_identifier()));
                 let start = starts.get(&name).unwrap_or_else(|| {
-                    let id = d.model_identifier;
+                    let id = d.model_identifier();
                     panic!("{id} {source}: a `(default {value})` after `{name}`, which is no parameter or input")
                 });
-                assert_eq!(value, *start, "{} {source}: the default of {name}", d.model_identifier);
+                assert_eq!(value, *start, "{} {source}: the default of {name}", d.model_identifier());
                 checked.entry(source).or_default().push(name);
             }
         }
         let in_html = checked.get("documentation/index.html").cloned().unwrap_or_default();
-        for name in SUPERVISOR_PARAMETERS {
+        // A plant has no supervisor.
+        for name in SUPERVISOR_PARAMETERS.iter().filter(|_| matches!(fmu, Fmu::Estimator(_))) {
             assert!(
                 in_html.iter().any(|n| n == name),
                 "{}: the documentation states no default of {name}",
-                d.model_identifier
+                d.model_identifier()
             );
         }
         eprintln!(
             "{}: {} defaults checked in documentation/index.html, {} in description attributes ({})",
-            d.model_identifier,
+            d.model_identifier(),
             in_html.len(),
             checked.get("a description attribute").map_or(0, Vec::len),
             in_html.join(", ")
@@ -251,15 +257,16 @@ fn every_default_the_shipped_texts_state_is_the_start_value_in_the_model_descrip
 
 #[test]
 fn the_shipped_texts_write_no_value_beside_a_variable_name_but_its_default() {
-    for d in &estimators::all() {
-        let xml = committed(d.model_identifier);
+    for fmu in &catalogue::all() {
+        let d = fmu.description();
+        let xml = committed(d.model_identifier());
         let starts = start_values(&xml);
-        let texts = std::iter::once(prose(&documentation(d))).chain(description_attributes(&xml));
+        let texts = std::iter::once(prose(&d.documentation_page())).chain(description_attributes(&xml));
         let bare: Vec<String> = texts.flat_map(|text| bare_values(&text, starts.keys())).collect();
         assert!(
             bare.is_empty(),
             "{}: a value written beside a variable's name, not as `{{name}}` (its default): {bare:?}",
-            d.model_identifier
+            d.model_identifier()
         );
     }
 }

@@ -2,13 +2,13 @@
 //! (`kalfmu_fmu::estimators`), its parameter values (the start values, then what the log
 //! says was set, then the user's), and the parameters to fit. A filter is built by the
 //! FMU's own code, as an instance builds it at `fmi2ExitInitializationMode`
-//! (`kalfmu_fmu::instance::build_filter`). The supervisor (gate, fault flags) is left out
+//! (`kalfmu_fmu::estimating::build_filter`). The supervisor (gate, fault flags) is left out
 //! of the fit: the likelihood caps gross errors itself (`likelihood.rs`); the smoothed log
 //! runs the whole loop ([`FmuEstimator::supervised`]).
 
 use estimator::{FilterKind, StateEstimator, SupervisedFilter};
+use kalfmu_fmu::estimating;
 use kalfmu_fmu::estimators::{self, Descriptor, FILTER_KIND};
-use kalfmu_fmu::instance;
 use kalfmu_fmu::variables::{Causality, Kind, Variability};
 
 use crate::likelihood::FilterFactory;
@@ -180,8 +180,8 @@ impl FmuEstimator {
     /// it, the belief at `start_time`.
     pub fn supervised(&self, fitted: &[f64], start_time: f64) -> Result<SupervisedFilter, String> {
         let values = self.values_with(fitted);
-        let filter = instance::build_filter(&self.descriptor, &values, start_time)?;
-        let supervisor = instance::build_supervisor(&self.descriptor, &values, filter.state_dim())?;
+        let filter = estimating::build_filter(&self.descriptor, &values, start_time)?;
+        let supervisor = estimating::build_supervisor(&self.descriptor, &values, filter.state_dim())?;
         SupervisedFilter::new(filter, supervisor).map_err(|e| e.to_string())
     }
 
@@ -216,7 +216,7 @@ impl FilterFactory for FmuEstimator {
     }
 
     fn build(&self, fitted: &[f64], start_time: f64) -> Result<Box<dyn StateEstimator>, String> {
-        instance::build_filter(&self.descriptor, &self.values_with(fitted), start_time)
+        estimating::build_filter(&self.descriptor, &self.values_with(fitted), start_time)
     }
 
     fn sample_time(&self) -> f64 {

@@ -2,7 +2,7 @@
 //! estimates given the whole log written as a topic of their own: the offline review of a
 //! recorded run.
 //!
-//! The estimator runs as an FMU instance runs it (`kalfmu_fmu::instance`: its filter
+//! The estimator runs as an FMU instance runs it (`kalfmu_fmu::estimating`: its filter
 //! behind its supervisor — gate, fault flags, jumps, adaptation — with the parameters the
 //! command was given or fitted), at the log's sample times on the FMU's grid (an instant of
 //! the grid without a sample is a prediction only), keeping each prediction's transition.

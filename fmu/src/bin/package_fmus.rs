@@ -1,4 +1,4 @@
-//! Writes every estimator FMU: `modelDescription.xml`, the shared library as
+//! Writes every FMU, the estimators and the plants: `modelDescription.xml`, the shared library as
 //! `binaries/linux64/<modelIdentifier>.so`, and `documentation/index.html`.
 //!
 //! Usage:
@@ -14,8 +14,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use kalfmu_fmu::estimators;
-use kalfmu_fmu::model_description::{documentation, model_description};
+use kalfmu_fmu::catalogue;
+use kalfmu_fmu::model_description::model_description;
 use zip::write::SimpleFileOptions;
 
 fn main() -> ExitCode {
@@ -32,8 +32,9 @@ fn run() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().ok_or("no workspace root")?.to_path_buf();
     if args.iter().any(|a| a == "--write-model-descriptions") {
-        for d in &estimators::all() {
-            let dir = root.join("modelDescription").join(d.model_identifier);
+        for fmu in &catalogue::all() {
+            let d = fmu.description();
+            let dir = root.join("modelDescription").join(d.model_identifier());
             fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
             let path = dir.join("modelDescription.xml");
             fs::write(&path, model_description(d)).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -58,16 +59,17 @@ fn run() -> Result<(), String> {
     let binary = fs::read(&library)
         .map_err(|e| format!("{}: {e} (build it with cargo build --release -p fmu)", library.display()))?;
     fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    for d in &estimators::all() {
-        estimators::check(d)?;
-        let path = out.join(format!("{}.fmu", d.model_identifier));
+    for fmu in &catalogue::all() {
+        let d = fmu.description();
+        d.check()?;
+        let path = out.join(format!("{}.fmu", d.model_identifier()));
         let file = File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut zip = zip::ZipWriter::new(file);
         let options = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
-        let (xml, html) = (model_description(d), documentation(d));
+        let (xml, html) = (model_description(d), d.documentation_page());
         let entries: [(String, &[u8]); 3] = [
             ("modelDescription.xml".into(), xml.as_bytes()),
-            (format!("binaries/linux64/{}.so", d.model_identifier), &binary),
+            (format!("binaries/linux64/{}.so", d.model_identifier()), &binary),
             ("documentation/index.html".into(), html.as_bytes()),
         ];
         for (name, bytes) in entries {

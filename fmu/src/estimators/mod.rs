@@ -3,7 +3,7 @@
 //! instance never change for a new estimator: adding one is adding a file
 //! here and a line in [`all`].
 
-mod s1_load;
+pub(crate) mod s1_load;
 mod s2_wheel_rail;
 mod s3_wheel_rail_lr;
 mod s4_maglev;
@@ -14,7 +14,7 @@ use estimator::{FilterKind, Noise, QuantizedSteps, RowOutcome, StateEstimator, S
 
 use crate::model_description;
 use crate::timing::Reading;
-use crate::variables::{Causality, EnumerationType, Kind, Parameters, Role, Variability, Variable};
+use crate::variables::{check_table, EnumerationType, Kind, Parameters, Role, Variable};
 
 /// `<DefaultExperiment>`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -142,19 +142,6 @@ impl Descriptor {
     /// Number of control inputs (the model's known input `u`).
     pub fn control_dim(&self) -> usize {
         self.variables.iter().filter(|v| matches!(v.role, Role::Control(_))).count()
-    }
-
-    /// The enumeration types the variables use, each once.
-    pub fn enumeration_types(&self) -> Vec<&'static EnumerationType> {
-        let mut types: Vec<&'static EnumerationType> = Vec::new();
-        for v in &self.variables {
-            if let Kind::Enumeration(t) = v.kind {
-                if !types.iter().any(|k| std::ptr::eq(*k, t)) {
-                    types.push(t);
-                }
-            }
-        }
-        types
     }
 }
 
@@ -425,7 +412,7 @@ fn common_variables(sample_time: f64, filter: FilterKind, supervision: &Supervis
 }
 
 /// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from two FNV-1a hashes of the interface.
-fn guid_of(identifier: &str, variables: &[Variable]) -> String {
+pub(crate) fn guid_of(identifier: &str, variables: &[Variable]) -> String {
     let mut text = format!("{identifier}|{}", env!("CARGO_PKG_VERSION"));
     for v in variables {
         text.push_str(&format!(
@@ -448,20 +435,7 @@ fn guid_of(identifier: &str, variables: &[Variable]) -> String {
 /// Checks the table invariants the rest of the crate relies on.
 pub fn check(descriptor: &Descriptor) -> Result<(), String> {
     let vars = &descriptor.variables;
-    for (i, v) in vars.iter().enumerate() {
-        if vars[..i].iter().any(|w| w.name == v.name) {
-            return Err(format!("duplicate variable name {}", v.name));
-        }
-        let ok = matches!(
-            (v.causality, v.variability, v.start.is_some()),
-            (Causality::Parameter, Variability::Fixed | Variability::Tunable, true)
-                | (Causality::Input, Variability::Continuous | Variability::Discrete, true)
-                | (Causality::Output, Variability::Continuous | Variability::Discrete, false)
-        );
-        if !ok {
-            return Err(format!("variable {} has an illegal causality/variability/start combination", v.name));
-        }
-    }
+    check_table(vars)?;
     let m = descriptor.measurement_dim();
     for row in 0..m {
         let Some(input) = vars.iter().find(|v| v.role == Role::Measurement(row)) else {

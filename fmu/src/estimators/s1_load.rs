@@ -63,25 +63,8 @@ pub(super) fn descriptor() -> Descriptor {
         v.push(Variable::output(names[i].0, unit, Role::Estimate(i), descriptions[i].0));
         v.push(Variable::output(names[i].1, unit, Role::EstimateStd(i), descriptions[i].1));
     }
-    let chain = Oscillator2Dof::stiffness_nonlinear();
-    let positive = |var: Variable| var.bounded(Some(0.0), None);
-    v.extend([
-        positive(Variable::parameter("m1", "kg", chain.m1, "mass 1")),
-        positive(Variable::parameter("m2", "kg", chain.m2, "mass 2")),
-        Variable::parameter("k11", "N/m", 5.0, "ground spring: slope up to delta1"),
-        Variable::parameter("k12", "N/m", 20.0, "ground spring: slope from delta1 to delta2"),
-        Variable::parameter("k13", "N/m", 30.0, "ground spring: slope beyond delta2"),
-        positive(Variable::parameter("delta1", "m", 0.1, "ground spring: first breakpoint")),
-        positive(Variable::parameter("delta2", "m", 0.2, "ground spring: second breakpoint")),
-        Variable::parameter("c11", "N.s/m", 5.0, "ground damper: slope up to eps1"),
-        Variable::parameter("c12", "N.s/m", 5.0, "ground damper: slope from eps1 to eps2"),
-        Variable::parameter("c13", "N.s/m", 5.0, "ground damper: slope beyond eps2"),
-        positive(Variable::parameter("eps1", "m/s", 0.05, "ground damper: first breakpoint")),
-        positive(Variable::parameter("eps2", "m/s", 0.10, "ground damper: second breakpoint")),
-        Variable::parameter("k2", "N/m", chain.k2, "coupling stiffness"),
-        Variable::parameter("c2", "N.s/m", chain.c2, "coupling damping"),
-        Variable::integer_parameter("rk4_substeps", 1, (1, 1000), "RK4 steps per filter sample"),
-    ]);
+    v.extend(chain_variables());
+    v.push(Variable::integer_parameter("rk4_substeps", 1, (1, 1000), "RK4 steps per filter sample"));
     let x0 = ["x0_z1", "x0_z2", "x0_F", "x0_z1_dot", "x0_z2_dot", "x0_F_dot"];
     let p0 = ["p0_z1_std", "p0_z2_std", "p0_F_std", "p0_z1_dot_std", "p0_z2_dot_std", "p0_F_dot_std"];
     let p0_start = [1e-3, 1e-3, 20.0, 1e-3, 1e-3, 500.0];
@@ -131,10 +114,45 @@ pub(super) fn descriptor() -> Descriptor {
     .finish()
 }
 
+/// The chain's parameters, starting at the paper's stiffness-nonlinear chain (Table 1);
+/// the plant FMU of S1 has the same.
+pub(crate) fn chain_variables() -> Vec<Variable> {
+    let chain = Oscillator2Dof::stiffness_nonlinear();
+    let positive = |var: Variable| var.bounded(Some(0.0), None);
+    vec![
+        positive(Variable::parameter("m1", "kg", chain.m1, "mass 1")),
+        positive(Variable::parameter("m2", "kg", chain.m2, "mass 2")),
+        Variable::parameter("k11", "N/m", 5.0, "ground spring: slope up to delta1"),
+        Variable::parameter("k12", "N/m", 20.0, "ground spring: slope from delta1 to delta2"),
+        Variable::parameter("k13", "N/m", 30.0, "ground spring: slope beyond delta2"),
+        positive(Variable::parameter("delta1", "m", 0.1, "ground spring: first breakpoint")),
+        positive(Variable::parameter("delta2", "m", 0.2, "ground spring: second breakpoint")),
+        Variable::parameter("c11", "N.s/m", 5.0, "ground damper: slope up to eps1"),
+        Variable::parameter("c12", "N.s/m", 5.0, "ground damper: slope from eps1 to eps2"),
+        Variable::parameter("c13", "N.s/m", 5.0, "ground damper: slope beyond eps2"),
+        positive(Variable::parameter("eps1", "m/s", 0.05, "ground damper: first breakpoint")),
+        positive(Variable::parameter("eps2", "m/s", 0.10, "ground damper: second breakpoint")),
+        Variable::parameter("k2", "N/m", chain.k2, "coupling stiffness"),
+        Variable::parameter("c2", "N.s/m", chain.c2, "coupling damping"),
+    ]
+}
+
 fn law(p: &Parameters, slopes: [&str; 3], breaks: [&str; 2]) -> Result<PiecewiseLinear, String> {
     let s = [p.finite(slopes[0])?, p.finite(slopes[1])?, p.finite(slopes[2])?];
     let b = [p.non_negative(breaks[0])?, p.non_negative(breaks[1])?];
     PiecewiseLinear::new(s, b).map_err(|e| e.to_string())
+}
+
+/// The chain of the parameters `m1` … `c2` (the plant FMU of S1 has the same).
+pub(crate) fn chain(p: &Parameters) -> Result<Oscillator2Dof, String> {
+    Ok(Oscillator2Dof {
+        m1: p.positive("m1")?,
+        m2: p.positive("m2")?,
+        k1: law(p, ["k11", "k12", "k13"], ["delta1", "delta2"])?,
+        c1: law(p, ["c11", "c12", "c13"], ["eps1", "eps2"])?,
+        k2: p.finite("k2")?,
+        c2: p.finite("c2")?,
+    })
 }
 
 fn build(
@@ -143,14 +161,7 @@ fn build(
     ukf: UnscentedParams,
     noise: Noise,
 ) -> Result<Box<dyn StateEstimator>, String> {
-    let chain = Oscillator2Dof {
-        m1: p.positive("m1")?,
-        m2: p.positive("m2")?,
-        k1: law(p, ["k11", "k12", "k13"], ["delta1", "delta2"])?,
-        c1: law(p, ["c11", "c12", "c13"], ["eps1", "eps2"])?,
-        k2: p.finite("k2")?,
-        c2: p.finite("c2")?,
-    };
+    let chain = chain(p)?;
     let substeps = p.positive("rk4_substeps")? as usize;
     let mean: Vec<f64> = ["x0_z1", "x0_z2", "x0_F", "x0_z1_dot", "x0_z2_dot", "x0_F_dot"]
         .iter()

@@ -96,6 +96,30 @@ impl ChainPlant {
         self.steps as f64 * self.h
     }
 
+    /// RK4 steps taken since `t = 0`.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// The held load (N), for a plant whose load is set from outside.
+    pub fn held_load(&self) -> Option<f64> {
+        match self.source {
+            LoadSource::Held(f) => Some(f),
+            LoadSource::Law(_) => None,
+        }
+    }
+
+    /// Puts the plant where [`ChainPlant::steps`] and [`ChainPlant::motion`] said it was
+    /// (a saved state): the same steps after it give the same numbers, to the bit.
+    pub fn resume(&mut self, motion: [f64; 4], steps: usize) -> Result<(), String> {
+        if motion.iter().any(|x| !x.is_finite()) {
+            return Err(format!("the motion must be finite, got {motion:?}"));
+        }
+        self.x = motion;
+        self.steps = steps;
+        Ok(())
+    }
+
     /// `[z₁, z₂, ż₁, ż₂]` now (m, m/s).
     pub fn motion(&self) -> [f64; 4] {
         self.x
