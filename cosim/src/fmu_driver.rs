@@ -13,6 +13,7 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
 use fmi::schema::fmi2::{Causality, ScalarVariableElement};
 use fmi::traits::{FmiImport, FmiInstance};
+use start_values::ssv::ValueKind;
 use start_values::StartValues;
 
 /// An imported FMU: its variables by name, and instances made from it.
@@ -137,6 +138,16 @@ impl ImportedFmu {
             .map_err(|e| anyhow!("fmi2SetReal of the inputs in initialisation mode: {e}"))?;
         Common::exit_initialization_mode(&mut cs).map_err(|e| anyhow!("fmi2ExitInitializationMode: {e}"))?;
         Ok(Instance { cs, time: start_time })
+    }
+
+    /// The type an SSP parameter set writes the value of parameter `name` as, if it is one.
+    pub fn value_kind(&self, name: &str) -> Option<ValueKind> {
+        self.parameters.get(name).and_then(|t| match t {
+            ParameterType::Real => Some(ValueKind::Real),
+            ParameterType::Integer => Some(ValueKind::Integer),
+            ParameterType::Boolean => Some(ValueKind::Boolean),
+            ParameterType::String => None,
+        })
     }
 
     /// Whether the FMU takes every one of `start_values`: an error names the first it does

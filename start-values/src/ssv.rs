@@ -19,6 +19,17 @@ pub const COMMON_NAMESPACE: &str = "http://ssp-standard.org/SSP1/SystemStructure
 /// The SSV version written.
 pub const VERSION: &str = "1.0";
 
+/// The type a value is written as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ValueKind {
+    /// `ssv:Real`.
+    Real,
+    /// `ssv:Integer` (an FMU's Integer or Enumeration).
+    Integer,
+    /// `ssv:Boolean`.
+    Boolean,
+}
+
 /// One parameter value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameter {
@@ -26,6 +37,8 @@ pub struct Parameter {
     pub name: String,
     /// Its value.
     pub value: f64,
+    /// The type it is written as (a number of an Integer or Boolean is whole, 0 or 1).
+    pub kind: ValueKind,
     /// Its unit, one of the set's [`Unit`]s.
     pub unit: Option<String>,
     /// A note for the reader (the `description` attribute).
@@ -135,7 +148,11 @@ pub fn to_xml(set: &ParameterSet) -> String {
         if let Some(d) = &p.description {
             let _ = write!(x, " description=\"{}\"", escape(d));
         }
-        let _ = write!(x, ">\n      <ssv:Real value=\"{}\"", double(p.value));
+        let _ = match p.kind {
+            ValueKind::Real => write!(x, ">\n      <ssv:Real value=\"{}\"", double(p.value)),
+            ValueKind::Integer => write!(x, ">\n      <ssv:Integer value=\"{}\"", p.value),
+            ValueKind::Boolean => write!(x, ">\n      <ssv:Boolean value=\"{}\"", p.value != 0.0),
+        };
         if let Some(u) = &p.unit {
             let _ = write!(x, " unit=\"{}\"", escape(u));
         }
@@ -209,20 +226,24 @@ pub fn parse(text: &str) -> Result<ParameterSet, String> {
             .find(|n| n.is_element() && n.tag_name().namespace() == Some(NAMESPACE))
             .ok_or_else(|| format!("parameter {name} has no value element"))?;
         let text = typed.attribute("value").ok_or_else(|| format!("parameter {name} has no value"))?;
-        let value = match typed.tag_name().name() {
-            "Real" => parse_double(text),
-            "Integer" => text.trim().parse::<i32>().ok().map(f64::from),
-            "Boolean" => match text.trim() {
-                "true" | "1" => Some(1.0),
-                "false" | "0" => Some(0.0),
-                _ => None,
-            },
+        let (value, kind) = match typed.tag_name().name() {
+            "Real" => (parse_double(text), ValueKind::Real),
+            "Integer" => (text.trim().parse::<i32>().ok().map(f64::from), ValueKind::Integer),
+            "Boolean" => {
+                let value = match text.trim() {
+                    "true" | "1" => Some(1.0),
+                    "false" | "0" => Some(0.0),
+                    _ => None,
+                };
+                (value, ValueKind::Boolean)
+            }
             other => return Err(format!("parameter {name} is of type {other}; an FMU start value here is a number")),
-        }
-        .ok_or_else(|| format!("parameter {name}: '{text}' is not a {}", typed.tag_name().name()))?;
+        };
+        let value = value.ok_or_else(|| format!("parameter {name}: '{text}' is not a {}", typed.tag_name().name()))?;
         set.parameters.push(Parameter {
             name: name.into(),
             value,
+            kind,
             unit: typed.attribute("unit").map(String::from),
             description: p.attribute("description").map(String::from),
         });

@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use start_values::ssv::{self, Parameter, ParameterSet, Unit, COMMON_NAMESPACE, NAMESPACE};
+use start_values::ssv::{self, Parameter, ParameterSet, Unit, ValueKind, COMMON_NAMESPACE, NAMESPACE};
 
 fn sample_set() -> ParameterSet {
     let values = [1.56e6, 0.1 + 0.2, 5e-324, 1e300, 123_456_789.123_456_79, 3.0e-5];
@@ -17,6 +17,7 @@ fn sample_set() -> ParameterSet {
         set.parameters.push(Parameter {
             name: format!("param_{k}"),
             value,
+            kind: ValueKind::Real,
             unit: (k % 2 == 0).then(|| "N2/s3".to_string()),
             description: Some(format!("95 % interval [{:e}, {:e}]", value / 2.0, value * 2.0)),
         });

@@ -2,7 +2,7 @@
 //! after them, a later value replacing an earlier one in its place; over a study's
 //! defaults they replace the defaults of their names and add the others after them.
 
-use start_values::ssv::{self, Parameter, ParameterSet};
+use start_values::ssv::{self, Parameter, ParameterSet, ValueKind};
 use start_values::{Assignment, Options, StartValues};
 
 fn set(text: &str) -> Assignment {
@@ -26,7 +26,13 @@ fn set_lines_win_over_the_files_and_later_files_over_earlier_ones() {
     let file = |name: &str, values: &[(&str, f64)]| {
         let mut set = ParameterSet::new(name);
         for (n, v) in values {
-            set.parameters.push(Parameter { name: n.to_string(), value: *v, unit: None, description: None });
+            set.parameters.push(Parameter {
+                name: n.to_string(),
+                value: *v,
+                kind: ValueKind::Real,
+                unit: None,
+                description: None,
+            });
         }
         let path = dir.join(format!("start_values_{}_{name}.ssv", std::process::id()));
         ssv::write(&path, &set).unwrap();

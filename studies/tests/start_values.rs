@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use estimator::FilterKind;
-use start_values::ssv::{self, Parameter, ParameterSet};
+use start_values::ssv::{self, Parameter, ParameterSet, ValueKind};
 use start_values::{Assignment, Options, SetByName, StartValues};
 use studies::s1::{self, Tuning};
 use truth::s1::{Case, Settings};
@@ -29,7 +29,13 @@ fn ssv_file(name: &str, values: &[(&str, f64)]) -> TempFile {
     let mut set = ParameterSet::new("tuned");
     set.parameters = values
         .iter()
-        .map(|&(name, value)| Parameter { name: name.into(), value, unit: None, description: None })
+        .map(|&(name, value)| Parameter {
+            name: name.into(),
+            value,
+            kind: ValueKind::Real,
+            unit: None,
+            description: None,
+        })
         .collect();
     ssv::write(&path, &set).unwrap();
     TempFile(path)

@@ -10,7 +10,7 @@ use crate::consistency::NisBand;
 use crate::fit::Fit;
 use crate::intervals::SetAside;
 use crate::likelihood::RobustCap;
-use start_values::ssv::{Parameter, ParameterSet, Unit};
+use start_values::ssv::{Parameter, ParameterSet, Unit, ValueKind};
 use start_values::Assignment;
 
 /// A number in 4 significant digits, exponent form when large or small.
@@ -163,6 +163,7 @@ pub fn parameter_set(name: &str, source: &str, fit: &Fit, names: &[String], unit
         set.parameters.push(Parameter {
             name: name.clone(),
             value: interval.estimate,
+            kind: ValueKind::Real,
             unit: known.map(|k| k.name.to_string()),
             description: Some(description),
         });

@@ -17,6 +17,7 @@ pub mod faults;
 pub mod fmu_run;
 pub mod reproduce;
 pub mod sweep;
+pub mod system;
 
 use estimator::models::Oscillator2DofLoad;
 use estimator::{build_filter, Discretized, FilterError, FilterKind, Gaussian, Noise, StateEstimator, UnscentedParams};

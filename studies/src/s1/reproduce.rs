@@ -550,6 +550,10 @@ pub fn report(
         cases.push(tabulated.figures);
     }
     bar.finish_and_clear();
+    let system_case = Case::ALL[0];
+    let system_truth = &truths.iter().find(|(c, _)| *c == system_case).expect("simulated").1;
+    let system = run_system(&fmu, &system_case, system_truth, settings, start_values, fmu_dir, &dir);
+    failures += usize::from(system.is_err());
     write_table(
         &dir,
         &Table {
@@ -570,6 +574,28 @@ pub fn report(
     )?;
     print!("{table}");
     println!("paper: {PAPER_SOURCE} (correlation; running-RMSE peak; bound after the start), N");
+    match system {
+        Ok((path, c)) => {
+            println!(
+                "system: {system_case} as an SSP archive, the plant FMU kalfmu_s1_chain wired to kalfmu_s1_load ({}), \
+                 under a Jacobi master over the fmi importer, {DEFAULT_FILTER}: F RMSE {:.4} N, 2σ coverage {:.3} \
+                 against the plant's F at the same {} time stamps; the in-process co-simulation of the case: RMSE {:.4} N, \
+                 2σ coverage {:.3}; {}",
+                path.display(),
+                c.system.rmse,
+                c.system.two_sigma_coverage,
+                c.system.samples,
+                c.in_process.rmse,
+                c.in_process.two_sigma_coverage,
+                if c.bit_for_bit {
+                    "the two estimates are the same bit for bit".to_string()
+                } else {
+                    format!("the estimates differ by up to {:.3e} N", c.largest_difference)
+                }
+            );
+        }
+        Err(e) => println!("system: {system_case} as an SSP archive FAILED: {e:#}"),
+    }
     println!(
         "smoothed: the FMU's fixed-lag smoothed load (smoothing_lag = {} s, the estimate of that much earlier given \
          the measurements up to now; logged on /smoothed): correlation, RMSE after convergence, 2σ coverage",
@@ -585,6 +611,28 @@ pub fn report(
         unseen.len()
     );
     Ok(failures)
+}
+
+/// Writes `case` as a system of the plant and estimator FMUs (`<dir>/s1_system.ssp`), runs
+/// it and compares it with the case's in-process run of [`DEFAULT_FILTER`].
+fn run_system(
+    fmu: &ImportedFmu,
+    case: &Case,
+    truth: &Truth,
+    settings: &Settings,
+    start_values: &StartValues,
+    fmu_dir: &Path,
+    dir: &Path,
+) -> anyhow::Result<(PathBuf, super::system::Compared)> {
+    let noise_std = truth::s1::measure(truth, settings.noise_fraction, settings.seed).noise_std;
+    let system = super::system::system(case, settings, noise_std, DEFAULT_FILTER, start_values, fmu)?;
+    let path = dir.join("s1_system.ssp");
+    super::system::write(&system, fmu_dir, &path)?;
+    let unpack = dir.join(".s1_system_fmus");
+    let in_process = log_path(&dir.join(case.to_string().replace('/', "_")), DEFAULT_FILTER);
+    let compared = super::system::run_and_compare(&path, &unpack, &in_process);
+    let _ = std::fs::remove_dir_all(&unpack);
+    Ok((path, compared?))
 }
 
 /// Where the paper's figures come from, as the table's footnote names it.

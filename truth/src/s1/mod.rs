@@ -140,11 +140,13 @@ pub fn chain_parameters(chain: &Oscillator2Dof) -> [(&'static str, f64); 14] {
     let (k, c) = (chain.k1, chain.c1);
     let (ks, kb) = (k.slopes(), k.breaks());
     let (cs, cb) = (c.slopes(), c.breaks());
-    // A linear element is a law of three equal slopes whose breakpoints are not finite;
-    // they are then irrelevant, and the FMU's defaults stand in for them (the FMU takes
-    // only positive breakpoints).
-    let breaks = |b: [f64; 2], default: [f64; 2]| if b[0].is_finite() { b } else { default };
-    let (kb, cb) = (breaks(kb, [0.1, 0.2]), breaks(cb, [0.05, 0.1]));
+    // A linear element is a law of three equal slopes whose breakpoints are not finite.
+    // The FMUs take finite breakpoints only: 1e300, beyond any motion, keeps the law on
+    // its first slope, evaluated as the linear law is, to the bit (finite breakpoints
+    // inside the motion would give the same law but round differently past them, and a
+    // plant FMU would no longer be the study's truth bit for bit).
+    let breaks = |b: [f64; 2]| if b[0].is_finite() { b } else { [1e300, 1e300] };
+    let (kb, cb) = (breaks(kb), breaks(cb));
     [
         ("m1", chain.m1),
         ("m2", chain.m2),
