@@ -51,7 +51,7 @@ def build_analyzer(root: Path = ROOT) -> Path:
 
 def build_fmus(out: Path, root: Path = ROOT) -> Path:
     """The release build, then `package-fmus --out OUT`; returns OUT, which
-    holds one `<modelIdentifier>.fmu` per estimator."""
+    holds one `<modelIdentifier>.fmu` per estimator and per plant."""
     packager = build_release_binary("package-fmus", root)
     subprocess.run([str(packager), "--out", str(out)], cwd=root, check=True, capture_output=True, text=True)
     return out
@@ -71,8 +71,8 @@ def analyzer_bin() -> Path:
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory) -> Path:
-    """Every estimator FMU, built and packaged once for the whole session into a
-    pytest temporary directory."""
+    """Every FMU, estimators and plants, built and packaged once for the whole
+    session into a pytest temporary directory."""
     yield build_fmus(tmp_path_factory.mktemp("fmus"))
 
 
@@ -127,7 +127,11 @@ FMUS = {
 CASE_FMUS = list(FMUS)
 
 
-@pytest.fixture(scope="session", params=list(FMUS))
+#: Every plant FMU, by the short name its parametrised tests carry in their ids.
+PLANT_FMUS = {"s1_plant": "kalfmu_s1_chain"}
+
+
+@pytest.fixture(scope="session", params=list(FMUS) + list(PLANT_FMUS))
 def any_fmu(request, fmu_dir) -> Path:
-    """Path of each estimator FMU in turn: a test using it runs once per FMU."""
-    yield packaged(fmu_dir, FMUS[request.param])
+    """Path of each FMU in turn, estimators and plants: a test using it runs once per FMU."""
+    yield packaged(fmu_dir, {**FMUS, **PLANT_FMUS}[request.param])

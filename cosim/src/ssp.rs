@@ -144,8 +144,8 @@ fn ssd(system: &System, ssv: &str) -> String {
     let e = system.experiment;
     x += &format!(
         "    </ssd:Connections>\n  </ssd:System>\n  <ssd:DefaultExperiment startTime=\"{:?}\" stopTime=\"{:?}\">\n    \
-         <ssc:Annotations>\n      <ssc:Annotation type=\"{STEP_ANNOTATION}\"><step size=\"{:?}\"/></ssc:Annotation>\n    \
-         </ssc:Annotations>\n  </ssd:DefaultExperiment>\n</ssd:SystemStructureDescription>\n",
+         <ssd:Annotations>\n      <ssc:Annotation type=\"{STEP_ANNOTATION}\"><step size=\"{:?}\"/></ssc:Annotation>\n    \
+         </ssd:Annotations>\n  </ssd:DefaultExperiment>\n</ssd:SystemStructureDescription>\n",
         e.start, e.stop, e.step
     );
     x

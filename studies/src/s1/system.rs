@@ -165,3 +165,43 @@ pub fn run_and_compare(ssp_path: &Path, unpack: &Path, in_process_log: &Path) ->
     let bit_for_bit = same(&f, &run.columns[0]) && same(&f_std, &run.columns[1]);
     Ok(Compared { system, in_process, largest_difference, bit_for_bit })
 }
+
+/// Command-line arguments of `kalfmu s1-system`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The case: stiffness/random, damping/random, stiffness/harmonic or damping/harmonic.
+    #[arg(long, default_value = "stiffness/random")]
+    pub case: Case,
+    /// The default experiment's duration in seconds.
+    #[arg(long, default_value_t = 10.0)]
+    pub duration: f64,
+    /// Seed of the random load and of the measurement noise.
+    #[arg(long, default_value_t = Settings::default().seed)]
+    pub seed: u64,
+    /// Accelerometer noise as a fraction of each channel's RMS (of the study's run of the case).
+    #[arg(long, default_value_t = Settings::default().noise_fraction)]
+    pub noise: f64,
+    /// The estimator's filter: CKF, SRCKF, SVD-CKF, UKF or EKF.
+    #[arg(long, default_value = "SRCKF")]
+    pub filter: FilterKind,
+    /// Where the packaged FMUs are (`package-fmus` writes them to target/fmu).
+    #[arg(long, default_value = "target/fmu")]
+    pub fmu_dir: std::path::PathBuf,
+    /// The `.ssp` file to write.
+    #[arg(long, value_name = "FILE.ssp")]
+    pub out: std::path::PathBuf,
+}
+
+/// `kalfmu s1-system`: writes the system of a case as an `.ssp` archive; its accelerometer
+/// noise is the study's (the fraction of each channel's RMS over the case's run).
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let settings =
+        Settings { duration: args.duration, seed: args.seed, noise_fraction: args.noise, ..Settings::default() };
+    settings.validate().map_err(anyhow::Error::msg)?;
+    let (_, measured) = truth::s1::simulate(&args.case, &settings);
+    let estimator = ImportedFmu::load_packaged(&args.fmu_dir, "kalfmu_s1_load")?;
+    let system = system(&args.case, &settings, measured.noise_std, args.filter, &StartValues::none(), &estimator)?;
+    write(&system, &args.fmu_dir, &args.out)?;
+    println!("{}", args.out.display());
+    Ok(())
+}
