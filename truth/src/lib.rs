@@ -11,3 +11,4 @@ pub mod s2;
 pub mod s3;
 pub mod s4;
 pub mod s5;
+pub mod sensor_noise;

@@ -5,9 +5,11 @@
 //! state); adding one is adding a file here and a line in [`all`].
 
 mod s1_chain;
+mod s2_track;
 
 use crate::estimators::{guid_of, DefaultExperiment};
 use crate::model_description;
+use crate::serialize::{Reader, Writer};
 use crate::variables::{check_table, Parameters, Role, Variable};
 
 /// A plant as the shell steps it: inputs held over each step, outputs of the
@@ -27,6 +29,17 @@ pub trait Plant {
     /// Back to what [`Plant::save`] gave, for a plant built from the same parameters;
     /// refused, with nothing changed, for bytes that are not such a state.
     fn restore(&mut self, saved: &[u8]) -> Result<(), String>;
+}
+
+/// Writes a noise stream's position (a `u128`) as two `u64`.
+fn write_position(w: &mut Writer, position: u128) {
+    w.u64(position as u64);
+    w.u64((position >> 64) as u64);
+}
+
+/// Reads what [`write_position`] wrote.
+fn read_position(r: &mut Reader<'_>) -> Result<u128, String> {
+    Ok(u128::from(r.u64()?) | (u128::from(r.u64()?) << 64))
 }
 
 /// Builds the plant at the start from the parameter values.
@@ -77,7 +90,7 @@ impl PlantDescriptor {
 
 /// Every plant FMU, built afresh (as [`crate::estimators::all`]).
 pub fn all() -> Vec<PlantDescriptor> {
-    vec![s1_chain::descriptor()]
+    vec![s1_chain::descriptor(), s2_track::descriptor()]
 }
 
 /// Checks the table invariants the shell relies on: every input and output index

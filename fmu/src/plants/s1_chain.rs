@@ -6,15 +6,17 @@
 //!
 //! Given the study's chain, load, seed, integration step and noise σ, and stepped at
 //! the study's sample time, it gives the study's truth and measurements to the bit:
-//! both are the same plant and the same noise stream (`truth::s1::AccelerometerNoise`).
+//! both are the same plant and the same noise stream (`truth::s1::accelerometer_noise`).
 
+use truth::s1::accelerometer_noise;
 use truth::s1::load::Load;
 use truth::s1::plant::{ChainPlant, LoadSource};
-use truth::s1::AccelerometerNoise;
+use truth::sensor_noise::SensorNoise;
 
-use super::{Plant, PlantDescriptor};
+use super::{read_position, write_position, Plant, PlantDescriptor};
 use crate::estimators::s1_load::{chain, chain_variables};
 use crate::estimators::DefaultExperiment;
+use crate::serialize::{Reader, Writer};
 use crate::variables::{EnumerationType, Kind, Parameters, Role, Variable};
 
 /// Where the chain's load comes from.
@@ -120,7 +122,7 @@ pub(super) fn descriptor() -> PlantDescriptor {
 struct Chain {
     plant: ChainPlant,
     h: f64,
-    noise: AccelerometerNoise,
+    noise: SensorNoise<2>,
     /// The noise of the current communication point (`σ·w`, m/s²).
     current_noise: [f64; 2],
 }
@@ -141,7 +143,7 @@ fn build(p: &Parameters) -> Result<Box<dyn Plant>, String> {
     let h = p.positive("integration_step")?;
     let plant = ChainPlant::new(chain(p)?, source, h)?;
     let std = [p.non_negative("z1_ddot_noise_std")?, p.non_negative("z2_ddot_noise_std")?];
-    let mut noise = AccelerometerNoise::new(seed("noise_seed")?, std);
+    let mut noise = accelerometer_noise(seed("noise_seed")?, std);
     let current_noise = noise.measure([0.0; 2]);
     Ok(Box::new(Chain { plant, h, noise, current_noise }))
 }
@@ -187,36 +189,30 @@ impl Plant for Chain {
     }
 
     fn save(&self) -> Vec<u8> {
-        let mut bytes = Vec::with_capacity(96);
-        for x in self.plant.motion() {
-            bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        bytes.extend_from_slice(&(self.plant.steps() as u64).to_le_bytes());
-        bytes.extend_from_slice(&self.plant.held_load().unwrap_or(0.0).to_le_bytes());
-        bytes.extend_from_slice(&self.noise.position().to_le_bytes());
-        for x in self.current_noise {
-            bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        bytes
+        let mut w = Writer(Vec::with_capacity(96));
+        w.f64s(&self.plant.motion());
+        w.u64(self.plant.steps() as u64);
+        w.f64(self.plant.held_load().unwrap_or(0.0));
+        write_position(&mut w, self.noise.position());
+        w.f64s(&self.current_noise);
+        w.0
     }
 
     fn restore(&mut self, saved: &[u8]) -> Result<(), String> {
-        if saved.len() != 4 * 8 + 8 + 8 + 16 + 2 * 8 {
-            return Err(format!("an S1 chain state has 80 bytes, not {}", saved.len()));
-        }
-        let f64_at = |i: usize| f64::from_le_bytes(saved[i..i + 8].try_into().expect("8 bytes"));
-        let motion = [f64_at(0), f64_at(8), f64_at(16), f64_at(24)];
-        let steps = u64::from_le_bytes(saved[32..40].try_into().expect("8 bytes"));
-        let held = f64_at(40);
-        let position = u128::from_le_bytes(saved[48..64].try_into().expect("16 bytes"));
-        let current_noise = [f64_at(64), f64_at(72)];
-        let mut plant = self.plant.clone();
-        plant.resume(motion, steps as usize)?;
-        if plant.held_load().is_some() {
-            plant.set_load(held)?;
-        }
+        let mut r = Reader::new(saved);
+        let motion: [f64; 4] = r.f64s()?.try_into().map_err(|_| "an S1 chain's motion has four numbers")?;
+        let steps = r.u64()? as usize;
+        let held = r.f64()?;
+        let position = read_position(&mut r)?;
+        let current_noise: [f64; 2] = r.f64s()?.try_into().map_err(|_| "an S1 chain has two sensors")?;
+        r.finish()?;
         if current_noise.iter().any(|x| !x.is_finite()) {
             return Err("the saved noise is not finite".into());
+        }
+        let mut plant = self.plant.clone();
+        plant.resume(motion, steps)?;
+        if plant.held_load().is_some() {
+            plant.set_load(held)?;
         }
         self.plant = plant;
         self.noise.set_position(position);

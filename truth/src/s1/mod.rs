@@ -28,7 +28,8 @@ use std::fmt;
 use estimator::models::Oscillator2Dof;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
+
+use crate::sensor_noise::SensorNoise;
 
 use load::Load;
 use plant::Truth;
@@ -271,42 +272,15 @@ pub struct Measurements {
 pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
     let rms = truth.acceleration_rms();
     let noise_std = [fraction * rms[0], fraction * rms[1]];
-    let mut noise = AccelerometerNoise::new(seed, noise_std);
+    let mut noise = accelerometer_noise(seed, noise_std);
     let acceleration = truth.acceleration.iter().map(|&a| noise.measure(a)).collect();
     Measurements { acceleration, noise_std }
 }
 
-/// The accelerometers' noise: white and Gaussian, both channels drawn at each sample from a
-/// stream of its own, so the noise does not change when the load's draw does. The study's
-/// measurements and a plant stepped by a master ([`plant::ChainPlant`] in a plant FMU)
-/// draw it alike: the same seed and σ give the same noise, sample by sample.
-#[derive(Debug, Clone)]
-pub struct AccelerometerNoise {
-    rng: ChaCha8Rng,
-    std: [f64; 2],
-}
-
-impl AccelerometerNoise {
-    /// The noise of `seed` with standard deviations `std` (m/s²) on `[z̈₁, z̈₂]`.
-    pub fn new(seed: u64, std: [f64; 2]) -> Self {
-        Self { rng: ChaCha8Rng::seed_from_u64(seed ^ 0x05EE_D0FA_11CE), std }
-    }
-
-    /// The next sample's measurement of the accelerations `a`.
-    pub fn measure(&mut self, a: [f64; 2]) -> [f64; 2] {
-        let w: [f64; 2] = [StandardNormal.sample(&mut self.rng), StandardNormal.sample(&mut self.rng)];
-        [a[0] + self.std[0] * w[0], a[1] + self.std[1] * w[1]]
-    }
-
-    /// Where the stream is (to save and restore it).
-    pub fn position(&self) -> u128 {
-        self.rng.get_word_pos()
-    }
-
-    /// Moves the stream to `position` (one [`AccelerometerNoise::position`] gave).
-    pub fn set_position(&mut self, position: u128) {
-        self.rng.set_word_pos(position);
-    }
+/// The accelerometers' noise on `[z̈₁, z̈₂]` (m/s²), of standard deviations `std`: a stream
+/// of its own, seeded from `seed`, so that it does not change when the load's draw does.
+pub fn accelerometer_noise(seed: u64, std: [f64; 2]) -> SensorNoise<2> {
+    SensorNoise::new(ChaCha8Rng::seed_from_u64(seed ^ 0x05EE_D0FA_11CE), std)
 }
 
 /// Runs the truth simulator of a case and returns the truth and the measurements.

@@ -19,10 +19,12 @@
 
 use std::fmt;
 
-use super::daq::{check_recording, with_noise, AntiAlias};
+use super::daq::{check_recording, with_noise};
 use super::irregularity::{Irregularity, RandomProfile, TrackSpectrum};
 use super::parameters::{Track, Vehicle};
 use super::plant::{Settings as PlantSettings, Simulation};
+use super::recording::Recording;
+use crate::sensor_noise::SensorNoise;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -54,14 +56,20 @@ impl Case {
     /// start) meets a corrugation 0.5 s in and a weld 1 s in; a random track is sampled over
     /// the whole run.
     pub fn irregularity(&self, settings: &Settings) -> Irregularity {
+        self.rail(settings.speed, settings.speed * settings.duration, &settings.spectrum, settings.seed)
+    }
+
+    /// The rail under a run at `speed` (m/s) over which the car body's centre covers `run`
+    /// metres: a random track of `spectrum` and `seed` sampled over it (a perfect rail
+    /// beyond), the corrugation and the weld met 0.5 s and 1 s in.
+    pub fn rail(&self, speed: f64, run: f64, spectrum: &TrackSpectrum, seed: u64) -> Irregularity {
         let front = Vehicle::ZHAI_PASSENGER.wheel_offsets()[0];
         match self {
             Case::Random => {
-                let end = settings.speed * settings.duration + front + 1.0;
-                Irregularity::Random(RandomProfile::sample(&settings.spectrum, settings.seed, -front - 1.0, end))
+                Irregularity::Random(RandomProfile::sample(spectrum, seed, -front - 1.0, run + front + 1.0))
             }
-            Case::Corrugation => Irregularity::corrugation(front + 0.5 * settings.speed),
-            Case::Weld => Irregularity::weld(front + settings.speed),
+            Case::Corrugation => Irregularity::corrugation(front + 0.5 * speed),
+            Case::Weld => Irregularity::weld(front + speed),
         }
     }
 }
@@ -225,32 +233,34 @@ pub fn as_built() -> Vehicle {
 /// fold it into the band, where no estimate could follow it.
 pub fn simulate(case: Case, settings: &Settings) -> Truth {
     let plant = PlantSettings { speed: settings.speed, ..PlantSettings::default() };
-    let mut sim = Simulation::new(as_built(), Track::BALLASTED, case.irregularity(settings), &plant);
-    let daq = AntiAlias::new(plant.dt, settings.rate);
-    let per_sample = (1.0 / (settings.rate * plant.dt)).round() as usize;
+    let sim = Simulation::new(as_built(), Track::BALLASTED, case.irregularity(settings), &plant);
+    let mut recording = Recording::new(sim, plant.dt, settings.rate).expect("a rate the settings checked");
     let samples = (settings.duration * settings.rate).round() as usize;
-    // The filter reaches half its length past the last sample.
-    let steps = samples * per_sample + daq.half_length();
-    let mut signals = Vec::with_capacity(steps + 1);
-    for step in 0..=steps {
-        if step > 0 {
-            sim.step();
+    let mut truth = Truth::default();
+    for k in 0..=samples {
+        if k > 0 {
+            recording.advance(1);
         }
-        let sample = sim.sample();
-        signals.push((sample.accelerations, sample.contact));
+        let (accelerations, contact) = recording.sample();
+        truth.time.push(k as f64 / settings.rate);
+        truth.accelerations.push(accelerations);
+        truth.contact.push(contact);
     }
-    let recorded = |k: usize, value: &dyn Fn(usize) -> f64| daq.at(k * per_sample, value);
-    Truth {
-        time: (0..=samples).map(|k| k as f64 / settings.rate).collect(),
-        accelerations: (0..=samples).map(|k| std::array::from_fn(|c| recorded(k, &|i| signals[i].0[c]))).collect(),
-        contact: (0..=samples).map(|k| std::array::from_fn(|j| recorded(k, &|i| signals[i].1[j]))).collect(),
-    }
+    truth
 }
+
+/// The sensors' noise of `seed` on the seven accelerations, of standard deviations `std`
+/// (m/s²): the stream [`measure`] draws from.
+pub fn sensor_noise(seed: u64, std: [f64; 7]) -> SensorNoise<7> {
+    SensorNoise::new(ChaCha8Rng::seed_from_u64(seed ^ NOISE_STREAM), std)
+}
+
+/// The noise's stream apart from the track's: the track's seed must not also draw the noise.
+const NOISE_STREAM: u64 = 0x5EED_0F5E_5501;
 
 /// Adds seeded white noise of `fraction` of each channel's RMS to the accelerations.
 pub fn measure(truth: &Truth, fraction: f64, seed: u64) -> Measurements {
-    // Its own stream: the track's seed must not also draw the noise.
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_0F5E_5501);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ NOISE_STREAM);
     let (accelerations, noise_std) = with_noise(&truth.accelerations, fraction, &mut rng);
     Measurements { accelerations, noise_std }
 }

@@ -17,7 +17,8 @@
 use std::f64::consts::PI;
 
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
+
+use crate::sensor_noise::SensorNoise;
 
 /// Checks that a recording can be made: a positive speed and duration, a rate whose sample
 /// time is a whole number of the truth's integration steps `dt`, a noise fraction of at
@@ -52,17 +53,10 @@ pub fn with_noise<const N: usize>(
         }
     }
     std = std.map(|s| fraction * (s / n).sqrt());
-    let noisy = channels
-        .iter()
-        .map(|row| {
-            let mut z = *row;
-            for (zi, s) in z.iter_mut().zip(std) {
-                let e: f64 = StandardNormal.sample(rng);
-                *zi += s * e;
-            }
-            z
-        })
-        .collect();
+    let mut noise = SensorNoise::new(rng.clone(), std);
+    let noisy = channels.iter().map(|row| noise.measure(*row)).collect();
+    // The caller's stream goes on from where the noise left it.
+    *rng = noise.into_stream();
     (noisy, std)
 }
 

@@ -57,6 +57,21 @@ impl Default for Settings {
     }
 }
 
+/// The state of a [`Simulation`] (see [`Simulation::state`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationState {
+    /// Time (s).
+    pub time: f64,
+    /// Where the window starts along the track (m).
+    pub origin: f64,
+    /// Displacements.
+    pub u: Vec<f64>,
+    /// Velocities.
+    pub v: Vec<f64>,
+    /// The accelerations of the step before, once there is one.
+    pub a_previous: Option<Vec<f64>>,
+}
+
 /// One sample of the truth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
@@ -179,6 +194,41 @@ impl Simulation {
     /// The accelerations of every degree of freedom, now.
     pub fn accelerations(&self) -> &[f64] {
         &self.a
+    }
+
+    /// What makes the system where it is, beside its construction: the time, the
+    /// window's origin, the displacements, the velocities and the accelerations of the step
+    /// before (the rest is computed from these).
+    pub fn state(&self) -> SimulationState {
+        SimulationState {
+            time: self.time,
+            origin: self.origin,
+            u: self.u.clone(),
+            v: self.v.clone(),
+            a_previous: self.a_previous.clone(),
+        }
+    }
+
+    /// Back to a [`Simulation::state`] of a system built alike: the same steps after it give
+    /// the same numbers, to the bit.
+    pub fn resume(&mut self, state: &SimulationState) -> Result<(), String> {
+        let n = self.u.len();
+        let sizes_fit =
+            state.u.len() == n && state.v.len() == n && state.a_previous.as_ref().is_none_or(|a| a.len() == n);
+        if !sizes_fit {
+            return Err(format!("a state of another system ({} degrees of freedom, this one {n})", state.u.len()));
+        }
+        let finite = [state.time, state.origin].iter().chain(&state.u).chain(&state.v).all(|x| x.is_finite());
+        if !finite {
+            return Err("the state is not finite".into());
+        }
+        self.time = state.time;
+        self.origin = state.origin;
+        self.u.copy_from_slice(&state.u);
+        self.v.copy_from_slice(&state.v);
+        self.a_previous.clone_from(&state.a_previous);
+        self.evaluate();
+        Ok(())
     }
 
     fn update_wheel_shapes(&mut self) {
