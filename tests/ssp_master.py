@@ -135,3 +135,23 @@ def run_jacobi(ssp: Path, record: list[tuple[str, str]]) -> dict:
         return out
     finally:
         shutil.rmtree(directory, ignore_errors=True)
+
+
+def check_bindings(ssp: Path, directory: Path) -> dict:
+    """Validates the archive against the SSP schemas (fmpy's readers) and checks that
+    every parameter it binds is a parameter of the FMU it names; returns the components
+    by name."""
+    ssd = read_ssd(str(ssp))  # validates against SystemStructureDescription.xsd
+    components = {c.name: c for c in ssd.system.elements}
+    with zipfile.ZipFile(ssp) as zf:
+        zf.extractall(directory)
+    variables = {
+        name: {v.name: v for v in read_model_description(str(directory / c.source)).modelVariables}
+        for name, c in components.items()
+    }
+    for parameter_set in parameter_sets(ssp):  # each validated against SystemStructureParameterValues.xsd
+        for p in parameter_set.parameters:
+            component, name = p.name.split(".", 1)
+            assert variables[component][name].causality == "parameter", p.name
+    return components
+

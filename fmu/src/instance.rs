@@ -53,6 +53,9 @@ pub enum Behaviour {
 pub struct Instance {
     pub(crate) shell: Shell,
     pub(crate) behaviour: Behaviour,
+    /// In initialisation mode: the outputs are not those of the current parameters and
+    /// inputs (computed at the next get, not at every set: building a plant can take long).
+    initial_outputs_stale: bool,
 }
 
 // SAFETY: the environment pointer is only handed back to the importer's logger;
@@ -113,7 +116,7 @@ impl Instance {
             Fmu::Estimator(d) => Behaviour::Estimator(Box::new(Estimating::new(d))),
             Fmu::Plant(d) => Behaviour::Plant(Box::new(Simulating::new(d))),
         };
-        let mut instance = Self { shell, behaviour };
+        let mut instance = Self { shell, behaviour, initial_outputs_stale: false };
         instance.reset();
         instance
     }
@@ -236,7 +239,7 @@ impl Instance {
     pub fn enter_initialization(&mut self) {
         self.shell.state = ModelState::InitializationMode;
         self.shell.time = self.shell.start_time;
-        self.refresh_initial_outputs();
+        self.initial_outputs_stale = true;
     }
 
     /// `fmi2ExitInitializationMode`: the behaviour builds what it runs from the parameters.
@@ -247,8 +250,14 @@ impl Instance {
         }
     }
 
+    /// In initialisation mode, after a set: the outputs are computed afresh at the next get.
+    pub fn mark_initial_outputs_stale(&mut self) {
+        self.initial_outputs_stale = true;
+    }
+
     /// In initialisation mode the outputs show what the current parameters start from.
-    pub fn refresh_initial_outputs(&mut self) {
+    fn refresh_initial_outputs(&mut self) {
+        self.initial_outputs_stale = false;
         match &mut self.behaviour {
             Behaviour::Estimator(e) => e.refresh_initial_outputs(&mut self.shell),
             Behaviour::Plant(p) => p.refresh_initial_outputs(&mut self.shell),
@@ -289,8 +298,15 @@ impl Instance {
         self.shell.state = ModelState::Terminated;
     }
 
-    /// Before a get: the outputs of the current time and inputs.
+    /// Before a get: the outputs of the current time and inputs (in initialisation mode,
+    /// those the current parameters and inputs start from).
     pub fn refresh_outputs(&mut self) {
+        if self.shell.state == ModelState::InitializationMode {
+            if self.initial_outputs_stale {
+                self.refresh_initial_outputs();
+            }
+            return;
+        }
         match &mut self.behaviour {
             Behaviour::Estimator(e) => e.refresh_outputs(&mut self.shell),
             Behaviour::Plant(p) => p.refresh_outputs(&mut self.shell),

@@ -397,7 +397,7 @@ unsafe fn set_values<T: Copy>(
         }
         let status = inst.set_values(&updates);
         if status == Fmi2Status::Ok && inst.shell.state == ModelState::InitializationMode {
-            inst.refresh_initial_outputs();
+            inst.mark_initial_outputs_stale();
         }
         status
     })

@@ -280,6 +280,8 @@ pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
         (Behaviour::Plant(p), SavedBehaviour::Plant(s)) => apply_plant(p, s.as_deref(), &saved.values)?,
         _ => return Err("FMU state of another kind of FMU".into()),
     }
+    // Outputs read in initialisation mode are computed from the restored values.
+    instance.mark_initial_outputs_stale();
     let shell = &mut instance.shell;
     shell.state = saved.state;
     shell.time = saved.time;

@@ -11,4 +11,5 @@ pub mod s3;
 pub mod s4;
 pub mod s5;
 pub mod smoothed;
+pub mod system;
 pub use shard;

@@ -11,18 +11,12 @@ use anyhow::{bail, Context};
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
 use cosim::ssp::{self, Component, Connection, Experiment, System};
 use estimator::FilterKind;
-use log_format::read::read_log;
-use log_format::write::ESTIMATE;
 use start_values::ssv::{Parameter, ParameterSet, ValueKind};
 use start_values::StartValues;
 use truth::s1::{chain_parameters, Case, LoadKind, Settings};
 
 use super::Tuning;
-
-/// The plant's and the estimator's names in the system.
-pub const PLANT: &str = "plant";
-/// See [`PLANT`].
-pub const ESTIMATOR: &str = "estimator";
+use crate::system::{ESTIMATOR, PLANT};
 
 const PLANT_FMU: &str = "resources/kalfmu_s1_chain.fmu";
 const ESTIMATOR_FMU: &str = "resources/kalfmu_s1_load.fmu";
@@ -106,66 +100,6 @@ pub fn write(system: &System, fmu_dir: &Path, out: &Path) -> anyhow::Result<()> 
     ssp::write(system, &[(PLANT_FMU, &plant), (ESTIMATOR_FMU, &estimator)], out)
 }
 
-/// The load estimate of a run against the true load at the same time stamps.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LoadFigures {
-    /// Time stamps compared.
-    pub samples: usize,
-    /// RMSE of `F` over the whole run (N).
-    pub rmse: f64,
-    /// Fraction of the time stamps whose error is within ±2σ.
-    pub two_sigma_coverage: f64,
-}
-
-impl LoadFigures {
-    fn of(estimate: &[f64], sigma: &[f64], truth: &[f64]) -> Self {
-        let n = estimate.len();
-        let errors = estimate.iter().zip(truth).map(|(e, t)| e - t);
-        let rmse = (errors.clone().map(|e| e * e).sum::<f64>() / n as f64).sqrt();
-        let covered = errors.zip(sigma).filter(|(e, s)| e.abs() <= 2.0 * *s).count();
-        Self { samples: n, rmse, two_sigma_coverage: covered as f64 / n as f64 }
-    }
-}
-
-/// The system's run beside the in-process co-simulation's.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Compared {
-    /// The system's load estimate against the plant FMU's true load.
-    pub system: LoadFigures,
-    /// The in-process run's against the truth simulator's.
-    pub in_process: LoadFigures,
-    /// The largest difference between the two runs' load estimates at the same time stamp (N).
-    pub largest_difference: f64,
-    /// Whether the two runs' load estimates and σ are the same bit for bit.
-    pub bit_for_bit: bool,
-}
-
-/// Runs the system in `ssp_path` (its FMUs unpacked into `unpack`) and compares it with
-/// the in-process run logged at `in_process_log`.
-pub fn run_and_compare(ssp_path: &Path, unpack: &Path, in_process_log: &Path) -> anyhow::Result<Compared> {
-    let record = [(ESTIMATOR, "F"), (ESTIMATOR, "F_std"), (PLANT, "F")];
-    let run = cosim::system_master::run(ssp_path, unpack, &record)?;
-    let system = LoadFigures::of(&run.columns[0], &run.columns[1], &run.columns[2]);
-    let log = read_log(in_process_log)?;
-    let estimate = log.channel(ESTIMATE)?;
-    let truth = log.channel(log_format::write::TRUTH)?;
-    let signal = |channel: &log_format::read::Channel, name: &str| -> anyhow::Result<Vec<f64>> {
-        Ok(channel.signal(name).with_context(|| format!("{} has no {name}", channel.topic))?.values.clone())
-    };
-    let (f, f_std, f_true) = (signal(estimate, "F")?, signal(estimate, "F_std")?, signal(truth, "F")?);
-    // The master's communication points add up the step; the log stamps k·dt: the same to rounding.
-    let same_instants = estimate.time.len() == run.time.len()
-        && estimate.time.iter().zip(&run.time).all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(1.0));
-    if !same_instants {
-        bail!("the system's {} time stamps are not the in-process run's {}", run.time.len(), estimate.time.len());
-    }
-    let in_process = LoadFigures::of(&f, &f_std, &f_true);
-    let largest_difference = f.iter().zip(&run.columns[0]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-    let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-    let bit_for_bit = same(&f, &run.columns[0]) && same(&f_std, &run.columns[1]);
-    Ok(Compared { system, in_process, largest_difference, bit_for_bit })
-}
-
 /// Command-line arguments of `kalfmu s1-system`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -190,6 +124,10 @@ pub struct Args {
     /// The `.ssp` file to write.
     #[arg(long, value_name = "FILE.ssp")]
     pub out: std::path::PathBuf,
+    /// Then run it under the Jacobi master and print the load's figures against the plant's
+    /// truth and the system's speed.
+    #[arg(long)]
+    pub run: bool,
 }
 
 /// `kalfmu s1-system`: writes the system of a case as an `.ssp` archive; its accelerometer
@@ -203,5 +141,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let system = system(&args.case, &settings, measured.noise_std, args.filter, &StartValues::none(), &estimator)?;
     write(&system, &args.fmu_dir, &args.out)?;
     println!("{}", args.out.display());
+    if args.run {
+        let unpack = args.out.with_extension("fmus");
+        println!("{}", crate::system::run(&args.out, &unpack, &["F"])?.summary());
+    }
     Ok(())
 }

@@ -14,3 +14,4 @@ pub mod fmu_run;
 pub mod reproduce;
 pub mod study;
 pub mod sweep;
+pub mod system;
