@@ -39,59 +39,41 @@ pub trait FmuDescription {
     }
 }
 
-impl FmuDescription for Descriptor {
-    fn model_identifier(&self) -> &'static str {
-        self.model_identifier
-    }
-    fn model_name(&self) -> &'static str {
-        self.model_name
-    }
-    fn description(&self) -> &'static str {
-        self.description
-    }
-    fn variables(&self) -> &[Variable] {
-        &self.variables
-    }
-    fn default_experiment(&self) -> DefaultExperiment {
-        self.default_experiment
-    }
-    fn guid(&self) -> &str {
-        Descriptor::guid(self)
-    }
-    fn documentation_page(&self) -> String {
-        documentation(self)
-    }
-    fn check(&self) -> Result<(), String> {
-        estimators::check(self)
-    }
+/// The description of an FMU whose table has the fields `model_identifier`, `model_name`,
+/// `description`, `variables` and `default_experiment`, and a `guid()`.
+macro_rules! fmu_description {
+    ($table:ty, $page:path, $check:path) => {
+        impl FmuDescription for $table {
+            fn model_identifier(&self) -> &'static str {
+                self.model_identifier
+            }
+            fn model_name(&self) -> &'static str {
+                self.model_name
+            }
+            fn description(&self) -> &'static str {
+                self.description
+            }
+            fn variables(&self) -> &[Variable] {
+                &self.variables
+            }
+            fn default_experiment(&self) -> DefaultExperiment {
+                self.default_experiment
+            }
+            fn guid(&self) -> &str {
+                <$table>::guid(self)
+            }
+            fn documentation_page(&self) -> String {
+                $page(self)
+            }
+            fn check(&self) -> Result<(), String> {
+                $check(self)
+            }
+        }
+    };
 }
 
-impl FmuDescription for PlantDescriptor {
-    fn model_identifier(&self) -> &'static str {
-        self.model_identifier
-    }
-    fn model_name(&self) -> &'static str {
-        self.model_name
-    }
-    fn description(&self) -> &'static str {
-        self.description
-    }
-    fn variables(&self) -> &[Variable] {
-        &self.variables
-    }
-    fn default_experiment(&self) -> DefaultExperiment {
-        self.default_experiment
-    }
-    fn guid(&self) -> &str {
-        PlantDescriptor::guid(self)
-    }
-    fn documentation_page(&self) -> String {
-        plant_documentation(self)
-    }
-    fn check(&self) -> Result<(), String> {
-        plants::check(self)
-    }
-}
+fmu_description!(Descriptor, documentation, estimators::check);
+fmu_description!(PlantDescriptor, plant_documentation, plants::check);
 
 /// One FMU of the binary.
 #[derive(Debug)]

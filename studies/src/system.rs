@@ -8,14 +8,42 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
+use cosim::ssp::{Component, Connection, Experiment, System};
 use cosim::system_master::{self, Recorded};
 use log_format::read::{read_log, Channel};
 use log_format::write::{ESTIMATE, TRUTH};
+use start_values::ssv::ParameterSet;
 
 /// The components' names in every study's system.
 pub const PLANT: &str = "plant";
 /// See [`PLANT`].
 pub const ESTIMATOR: &str = "estimator";
+
+/// The system of a study: `plant_fmu` (`resources/<id>.fmu`) with its outputs `measured`
+/// connected to the inputs of the same names of `estimator_fmu`, `parameters` bound,
+/// over `experiment`.
+pub fn plant_to_estimator(
+    name: &str,
+    (plant_fmu, estimator_fmu): (&str, &str),
+    measured: &[&str],
+    parameters: ParameterSet,
+    experiment: Experiment,
+) -> System {
+    let connectors = |input: bool| measured.iter().map(|n| (n.to_string(), input)).collect();
+    System {
+        name: name.into(),
+        components: vec![
+            Component { name: PLANT.into(), source: plant_fmu.into(), connectors: connectors(false) },
+            Component { name: ESTIMATOR.into(), source: estimator_fmu.into(), connectors: connectors(true) },
+        ],
+        connections: measured
+            .iter()
+            .map(|n| Connection { from: (PLANT.into(), n.to_string()), to: (ESTIMATOR.into(), n.to_string()) })
+            .collect(),
+        parameters,
+        experiment,
+    }
+}
 
 /// An estimate against the truth at the same time stamps.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -9,14 +9,14 @@ use std::path::Path;
 
 use anyhow::{bail, Context};
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
-use cosim::ssp::{self, Component, Connection, Experiment, System};
+use cosim::ssp::{self, Experiment, System};
 use estimator::FilterKind;
 use start_values::ssv::{Parameter, ParameterSet, ValueKind};
 use start_values::StartValues;
 use truth::s1::{chain_parameters, Case, LoadKind, Settings};
 
 use super::Tuning;
-use crate::system::{ESTIMATOR, PLANT};
+use crate::system::{plant_to_estimator, ESTIMATOR, PLANT};
 
 const PLANT_FMU: &str = "resources/kalfmu_s1_chain.fmu";
 const ESTIMATOR_FMU: &str = "resources/kalfmu_s1_load.fmu";
@@ -70,27 +70,8 @@ pub fn system(
         put(ESTIMATOR, name, value, kind);
     }
     let measured = ["z1_ddot", "z2_ddot"];
-    Ok(System {
-        name: "s1_system".into(),
-        components: vec![
-            Component {
-                name: PLANT.into(),
-                source: PLANT_FMU.into(),
-                connectors: measured.iter().map(|n| (n.to_string(), false)).collect(),
-            },
-            Component {
-                name: ESTIMATOR.into(),
-                source: ESTIMATOR_FMU.into(),
-                connectors: measured.iter().map(|n| (n.to_string(), true)).collect(),
-            },
-        ],
-        connections: measured
-            .iter()
-            .map(|n| Connection { from: (PLANT.into(), n.to_string()), to: (ESTIMATOR.into(), n.to_string()) })
-            .collect(),
-        parameters,
-        experiment: Experiment { start: 0.0, stop: settings.samples() as f64 * dt, step: dt },
-    })
+    let experiment = Experiment { start: 0.0, stop: settings.samples() as f64 * dt, step: dt };
+    Ok(plant_to_estimator("s1_system", (PLANT_FMU, ESTIMATOR_FMU), &measured, parameters, experiment))
 }
 
 /// Writes `system` as an `.ssp` at `out`, with the packaged FMUs of `fmu_dir`.

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
-use cosim::ssp::{self, Component, Connection, Experiment, System};
+use cosim::ssp::{self, Experiment, System};
 use estimator::FilterKind;
 use start_values::ssv::{Parameter, ParameterSet, ValueKind};
 use truth::s2::cases::{as_built, measure, simulate, Case, Scenario, Settings};
@@ -16,7 +16,7 @@ use truth::s2::parameters::Vehicle;
 
 use super::fmu_run;
 use super::study::Tuning;
-use crate::system::{ESTIMATOR, PLANT};
+use crate::system::{plant_to_estimator, ESTIMATOR, PLANT};
 
 const PLANT_FMU: &str = "resources/kalfmu_s2_track.fmu";
 const ESTIMATOR_FMU: &str = "resources/kalfmu_s2_wheel_rail.fmu";
@@ -84,27 +84,8 @@ pub fn system(
         }
     }
     let dt = 1.0 / settings.rate;
-    Ok(System {
-        name: "s2_system".into(),
-        components: vec![
-            Component {
-                name: PLANT.into(),
-                source: PLANT_FMU.into(),
-                connectors: MEASURED.iter().map(|n| (n.to_string(), false)).collect(),
-            },
-            Component {
-                name: ESTIMATOR.into(),
-                source: ESTIMATOR_FMU.into(),
-                connectors: MEASURED.iter().map(|n| (n.to_string(), true)).collect(),
-            },
-        ],
-        connections: MEASURED
-            .iter()
-            .map(|n| Connection { from: (PLANT.into(), n.to_string()), to: (ESTIMATOR.into(), n.to_string()) })
-            .collect(),
-        parameters,
-        experiment: Experiment { start: 0.0, stop: (settings.duration * settings.rate).round() * dt, step: dt },
-    })
+    let experiment = Experiment { start: 0.0, stop: (settings.duration * settings.rate).round() * dt, step: dt };
+    Ok(plant_to_estimator("s2_system", (PLANT_FMU, ESTIMATOR_FMU), &MEASURED, parameters, experiment))
 }
 
 /// Writes `system` as an `.ssp` at `out`, with the packaged FMUs of `fmu_dir`.
