@@ -148,8 +148,8 @@ fn with_air_the_energy_changes_by_the_aerodynamic_work() {
 #[test]
 fn halving_the_step_changes_the_flight_negligibly() {
     let f = flight();
-    let coarse = f.fly(&start(), 0.005, 10);
-    let fine = f.fly(&start(), 0.005, 20);
+    let coarse = f.fly(&start(), 0.005, 10).unwrap();
+    let fine = f.fly(&start(), 0.005, 20).unwrap();
     let scales = [1000.0, 1000.0, 1000.0, 1.0, 1.0, 1.0, 10_000.0, 1.0, 1.0, 1.0];
     for (a, b) in coarse.iter().zip(&fine) {
         for i in 0..10 {

@@ -6,6 +6,7 @@
 
 mod s1_chain;
 mod s2_track;
+mod s5_flight;
 
 use crate::estimators::{guid_of, DefaultExperiment};
 use crate::model_description;
@@ -90,7 +91,7 @@ impl PlantDescriptor {
 
 /// Every plant FMU, built afresh (as [`crate::estimators::all`]).
 pub fn all() -> Vec<PlantDescriptor> {
-    vec![s1_chain::descriptor(), s2_track::descriptor()]
+    vec![s1_chain::descriptor(), s2_track::descriptor(), s5_flight::descriptor()]
 }
 
 /// Checks the table invariants the shell relies on: every input and output index

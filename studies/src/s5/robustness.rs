@@ -112,7 +112,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .collect::<Result<_, _>>()
         .map_err(anyhow::Error::msg)?;
     let settings = Settings::default();
-    let truths: Vec<_> = Condition::ALL.iter().map(|c| simulate_flight(&c.flight(), &settings)).collect();
+    let truths: Vec<_> = Condition::ALL
+        .iter()
+        .map(|c| simulate_flight(&c.flight(), &settings))
+        .collect::<Result<_, _>>()
+        .map_err(anyhow::Error::msg)?;
     let jobs: Vec<(usize, FilterKind, u64)> = (0..Condition::ALL.len())
         .flat_map(|c| FilterKind::ALL.into_iter().flat_map(move |f| (1..=args.seeds).map(move |s| (c, f, s))))
         .collect();

@@ -5,11 +5,11 @@
 use estimator::models::Airframe;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::manoeuvre::Manoeuvre;
 use super::parameters::{start, AFTER, BEFORE, SENSOR_STD};
-use super::plant::{Flight, Motion};
+use super::plant::{Flight, FlyingPlant, Motion};
+use crate::sensor_noise::SensorNoise;
 
 /// How to run the study.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,43 +59,44 @@ pub fn flight_with(manoeuvre: Manoeuvre) -> Flight {
 /// Flies the study's missile through the manoeuvre of that name from the study's start
 /// and samples it: [`simulate`] for `standard`.
 pub fn simulate_named(name: &str, settings: &Settings) -> Result<Truth, String> {
-    Ok(simulate_flight(&flight_with(Manoeuvre::named(name)?), settings))
+    simulate_flight(&flight_with(Manoeuvre::named(name)?), settings)
 }
 
 /// Flies the study's flight and samples it.
 pub fn simulate(settings: &Settings) -> Truth {
-    simulate_flight(&flight(), settings)
+    simulate_flight(&flight(), settings).expect("the study's flight stays finite (tests/s5_truth.rs)")
 }
 
-/// Flies `flight` from the study's start and samples it.
-pub fn simulate_flight(flight: &Flight, settings: &Settings) -> Truth {
-    let motion = flight.fly(&start(), settings.sample_time, settings.truth_substeps);
+/// Flies `flight` from the study's start and samples it: the [`FlyingPlant`] stepped
+/// sample by sample, each sample's coefficients and deflections those of the RK4 step that
+/// starts it (those of the whole sample interval when, as in the studies' manoeuvres, they
+/// change on the sample grid). Refused for a flight that diverges.
+pub fn simulate_flight(flight: &Flight, settings: &Settings) -> Result<Truth, String> {
+    let samples = (flight.manoeuvre.duration / settings.sample_time).round() as usize;
+    let h = settings.sample_time / settings.truth_substeps as f64;
+    let mut plant = FlyingPlant::new(flight.clone(), start(), h, None)?;
     let mut truth = Truth::default();
-    for (k, x) in motion.into_iter().enumerate() {
-        let c = *flight.coefficients_over(k, settings.sample_time);
-        let delta = flight.manoeuvre.held(k, settings.sample_time);
-        let mut z = [0.0; 12];
-        flight.airframe.measure(&x, &c, &delta, &mut z);
+    for k in 0..=samples {
+        if k > 0 {
+            plant.advance(settings.truth_substeps)?;
+        }
         truth.time.push(k as f64 * settings.sample_time);
-        truth.motion.push(x);
-        truth.coefficients.push(c);
-        truth.deflections.push(delta);
-        truth.measurements.push(z);
+        truth.motion.push(plant.motion());
+        truth.coefficients.push(*plant.coefficients());
+        truth.deflections.push(plant.deflections());
+        truth.measurements.push(plant.measurements());
     }
-    truth
+    Ok(truth)
+}
+
+/// The sensors' noise of `seed` on the twelve measurements, of standard deviations `std`:
+/// the stream [`measure`] draws from.
+pub fn sensor_noise(seed: u64, std: [f64; 12]) -> SensorNoise<12> {
+    SensorNoise::new(ChaCha8Rng::seed_from_u64(seed ^ 0x5555_0005), std)
 }
 
 /// Adds each sensor's seeded white noise (`SENSOR_STD` × `scale`).
 pub fn measure(truth: &Truth, scale: f64, seed: u64) -> Vec<[f64; 12]> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5555_0005);
-    truth
-        .measurements
-        .iter()
-        .map(|z| {
-            std::array::from_fn(|i| {
-                let e: f64 = StandardNormal.sample(&mut rng);
-                z[i] + scale * SENSOR_STD[i] * e
-            })
-        })
-        .collect()
+    let mut noise = sensor_noise(seed, SENSOR_STD.map(|s| scale * s));
+    truth.measurements.iter().map(|&z| noise.measure(z)).collect()
 }

@@ -47,20 +47,127 @@ impl Flight {
     }
 
     /// The motion at every sample `k·sample_time` from `start` to the manoeuvre's end,
-    /// `substeps` RK4 steps per sample.
-    pub fn fly(&self, start: &Motion, sample_time: f64, substeps: usize) -> Vec<Motion> {
+    /// `substeps` RK4 steps per sample: the [`FlyingPlant`] stepped sample by sample.
+    /// Refused for a flight that diverges.
+    pub fn fly(&self, start: &Motion, sample_time: f64, substeps: usize) -> Result<Vec<Motion>, String> {
         let samples = (self.manoeuvre.duration / sample_time).round() as usize;
-        let h = sample_time / substeps as f64;
-        let mut x = *start;
+        let mut plant = FlyingPlant::new(self.clone(), *start, sample_time / substeps as f64, None)?;
         let mut out = Vec::with_capacity(samples + 1);
-        out.push(x);
-        for k in 0..samples {
-            let (c, delta) = (self.coefficients_over(k, sample_time), self.manoeuvre.held(k, sample_time));
-            for _ in 0..substeps {
-                x = self.step(c, &delta, h, &x);
-            }
-            out.push(x);
+        out.push(plant.motion());
+        for _ in 0..samples {
+            plant.advance(substeps)?;
+            out.push(plant.motion());
         }
-        out
+        Ok(out)
+    }
+}
+
+/// The flight as a plant that is stepped: from a start motion at `t = 0`, advanced by whole
+/// RK4 steps of `h`. Over each step the coefficients are those in force at its middle, and
+/// the deflections the manoeuvre's at its middle or, when set from outside, the held ones
+/// (a Co-Simulation input without derivatives). [`Flight::fly`] is this plant stepped sample
+/// by sample, so a master that steps it at the sample time gets the study's truth to the bit.
+#[derive(Debug, Clone)]
+pub struct FlyingPlant {
+    flight: Flight,
+    /// Deflections set from outside (rad), in place of the manoeuvre's.
+    held: Option<[f64; 3]>,
+    h: f64,
+    x: Motion,
+    /// RK4 steps taken.
+    steps: usize,
+}
+
+impl FlyingPlant {
+    /// `flight` from `start` at `t = 0`, integrated with RK4 at `h` (s); its deflections
+    /// `held` from outside (then settable, [`FlyingPlant::set_deflections`]) or, with
+    /// `None`, the manoeuvre's.
+    pub fn new(flight: Flight, start: Motion, h: f64, held: Option<[f64; 3]>) -> Result<Self, String> {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(format!("the integration step must be positive, got {h}"));
+        }
+        check_finite("start motion", &start)?;
+        if let Some(delta) = held {
+            check_finite("deflections", &delta)?;
+        }
+        Ok(Self { flight, held, h, x: start, steps: 0 })
+    }
+
+    /// Holds the deflections `delta` (rad) over the steps that follow; a plant flying its
+    /// manoeuvre refuses them.
+    pub fn set_deflections(&mut self, delta: [f64; 3]) -> Result<(), String> {
+        check_finite("deflections", &delta)?;
+        match &mut self.held {
+            Some(held) => *held = delta,
+            None => return Err("the deflections follow the manoeuvre; they cannot be set".into()),
+        }
+        Ok(())
+    }
+
+    /// Whether the deflections are set from outside.
+    pub fn holds_deflections(&self) -> bool {
+        self.held.is_some()
+    }
+
+    /// RK4 steps taken since `t = 0`.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// The motion now.
+    pub fn motion(&self) -> Motion {
+        self.x
+    }
+
+    /// Puts the plant where [`FlyingPlant::steps`] and [`FlyingPlant::motion`] said it was
+    /// (a saved state): the same steps after it give the same numbers, to the bit.
+    pub fn resume(&mut self, motion: Motion, steps: usize) -> Result<(), String> {
+        check_finite("motion", &motion)?;
+        self.x = motion;
+        self.steps = steps;
+        Ok(())
+    }
+
+    /// The coefficients in force over the next step.
+    pub fn coefficients(&self) -> &[f64; 10] {
+        let middle = (self.steps as f64 + 0.5) * self.h;
+        &self.flight.coefficients[usize::from(middle >= self.flight.manoeuvre.change_at)]
+    }
+
+    /// The deflections `δx, δy, δz` (rad) over the next step.
+    pub fn deflections(&self) -> [f64; 3] {
+        self.held.unwrap_or_else(|| self.flight.manoeuvre.deflection((self.steps as f64 + 0.5) * self.h))
+    }
+
+    /// The twelve measurements now, noise-free, under the coefficients and deflections of
+    /// the next step (the overloads depend on both).
+    pub fn measurements(&self) -> [f64; 12] {
+        let mut z = [0.0; 12];
+        self.flight.airframe.measure(&self.x, self.coefficients(), &self.deflections(), &mut z);
+        z
+    }
+
+    /// Advances `count` RK4 steps; refused, with nothing changed, when the motion would stop
+    /// being finite (a flight that diverges: coefficients or a start it cannot fly).
+    pub fn advance(&mut self, count: usize) -> Result<(), String> {
+        let (x, steps) = (self.x, self.steps);
+        for _ in 0..count {
+            self.x = self.flight.step(self.coefficients(), &self.deflections(), self.h, &self.x);
+            self.steps += 1;
+        }
+        if self.x.iter().any(|v| !v.is_finite()) {
+            let diverged = self.steps as f64 * self.h;
+            (self.x, self.steps) = (x, steps);
+            return Err(format!("the flight diverges before t = {diverged} s: its motion is no longer finite"));
+        }
+        Ok(())
+    }
+}
+
+fn check_finite(what: &str, values: &[f64]) -> Result<(), String> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("the {what} must be finite, got {values:?}"))
     }
 }
