@@ -128,7 +128,7 @@ CASE_FMUS = list(FMUS)
 
 
 #: Every plant FMU, by the short name its parametrised tests carry in their ids.
-PLANT_FMUS = {"s1_plant": "kalfmu_s1_chain", "s2_plant": "kalfmu_s2_track"}
+PLANT_FMUS = {"s1_plant": "kalfmu_s1_chain", "s2_plant": "kalfmu_s2_track", "s5_plant": "kalfmu_s5_flight"}
 
 
 @pytest.fixture(scope="session", params=list(FMUS) + list(PLANT_FMUS))

@@ -53,6 +53,8 @@ enum Command {
     S1System(studies::s1::system::Args),
     /// Write one S2 case as an SSP system: the plant FMU wired to the estimator FMU, with its parameter set.
     S2System(studies::s2::system::Args),
+    /// Write one S5 flight as an SSP system: the plant FMU wired to the estimator FMU, with its parameter set.
+    S5System(studies::s5::system::Args),
     /// Write the noisy measurements, the deflections and the true coefficients of the S5 flight as CSV.
     S5Export(studies::s5::export::Args),
 }
@@ -72,6 +74,7 @@ fn main() -> ExitCode {
         Command::S1Export(args) => studies::s1::export::run(args),
         Command::S1System(args) => studies::s1::system::run(args),
         Command::S2System(args) => studies::s2::system::run(args),
+        Command::S5System(args) => studies::s5::system::run(args),
         Command::S5Export(args) => studies::s5::export::run(args),
     };
     match result {

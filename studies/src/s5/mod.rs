@@ -8,6 +8,8 @@
 //! - Through the packaged FMU `kalfmu_s5_missile` ([`fmu_run`]): `reproduce`'s table
 //!   ([`reproduce`]); its Monte Carlo ([`monte_carlo`]) and robustness runs
 //!   ([`robustness`]); the flight as an FMU input table ([`export`]).
+//! - As a system of FMUs, the plant FMU `kalfmu_s5_flight` wired to the estimator FMU in an
+//!   SSP archive ([`system`]).
 
 pub mod excitation;
 pub mod export;
@@ -16,3 +18,4 @@ pub mod monte_carlo;
 pub mod reproduce;
 pub mod robustness;
 pub mod study;
+pub mod system;

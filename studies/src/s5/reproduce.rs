@@ -32,7 +32,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use start_values::{SetByName, StartValues};
 
@@ -512,6 +512,13 @@ pub fn report(
         failures += case_failures;
         truths.push(figures);
     }
+    match run_system(&given, fmu_dir) {
+        Ok((path, c)) => print_system(&path, &c),
+        Err(e) => {
+            failures += 1;
+            println!("system: roll-turn as an SSP archive FAILED: {e:#}");
+        }
+    }
     if truths.iter().flat_map(|t| &t.filters).any(|f| f.smoothed.is_some()) {
         println!(
             "smoothed (after │ in the tables, and `the same, smoothed`): the FMU's fixed-lag estimates (smoothing_lag = \
@@ -541,6 +548,49 @@ pub fn report(
         },
     )?;
     Ok(failures)
+}
+
+/// The manoeuvre the system case flies: one the estimators were not tuned on.
+const SYSTEM_MANOEUVRE: &str = "roll-turn";
+
+/// Writes the first truth through [`SYSTEM_MANOEUVRE`] as a system of the plant and
+/// estimator FMUs (`<dir>/s5_system.ssp`), runs it and compares it with that case's
+/// in-process run of SVD-CKF.
+fn run_system(given: &Given<'_>, fmu_dir: &Path) -> anyhow::Result<(PathBuf, crate::system::Compared)> {
+    let kind = FilterKind::SvdCkf;
+    let system = super::system::system(SYSTEM_MANOEUVRE, given.settings, kind, given.start_values, given.fmu)?;
+    let path = given.dir.join("s5_system.ssp");
+    super::system::write(&system, fmu_dir, &path)?;
+    let unpack = given.dir.join(".s5_system_fmus");
+    let case = cases(true).into_iter().find(|c| c.truth == "6dof" && c.manoeuvre == SYSTEM_MANOEUVRE);
+    let in_process = log_path(&given.dir.join(case.context("the system's case is one of the cases")?.name), kind);
+    let compared = crate::system::run_and_compare(&path, &unpack, &NAMES, &in_process)?;
+    Ok((path, compared))
+}
+
+/// The system case's line: its coefficients' figures against the plant's, beside the
+/// in-process run's estimates.
+fn print_system(path: &Path, c: &crate::system::Compared) {
+    let pairs = &c.run.pairs;
+    let worst = |f: fn(&crate::system::PairFigures) -> f64| pairs.iter().map(|(_, p)| f(p)).fold(f64::NAN, f64::min);
+    let rmse: Vec<String> = pairs.iter().map(|(n, p)| format!("{n} {}", significant(p.rmse))).collect();
+    println!(
+        "system: truth 1 through {SYSTEM_MANOEUVRE} as an SSP archive, the plant FMU kalfmu_s5_flight wired to \
+         {IDENTIFIER} ({}), under a Jacobi master over the fmi importer, SVD-CKF, against the plant's coefficients \
+         at the same {} time stamps: RMSE over the whole flight {}; lowest correlation {:.4}, lowest 2σ coverage \
+         {:.3}; ran at {:.0}× real time; {}",
+        path.display(),
+        c.system.samples,
+        rmse.join(", "),
+        worst(|p| p.correlation),
+        worst(|p| p.two_sigma_coverage),
+        c.run.real_time_factor,
+        if c.bit_for_bit {
+            "the estimates and σ are the in-process co-simulation's bit for bit".to_string()
+        } else {
+            format!("the estimates differ from the in-process co-simulation's by up to {:.3e}", c.largest_difference)
+        }
+    );
 }
 
 /// What the `vs library` line says of start values the in-process filter does not take:
