@@ -1,7 +1,8 @@
 //! Speed of the plant FMUs through their C ABI, as a master steps them: per communication
 //! step, `fmi2DoStep` and `fmi2GetReal` of every Real output, at the default parameters
 //! (S1's chain at 200 Hz with RK4 at 1e-4 s; S2's vehicle on its random track at 80 km/h,
-//! Zhai's method at 1e-4 s, recorded at 1 kHz).
+//! Zhai's method at 1e-4 s, recorded at 1 kHz; S5's missile flying the study's manoeuvre at
+//! 200 Hz with RK4 at 5e-4 s).
 //!
 //! Before criterion, the real-time factor of each over its default experiment's step, on
 //! one core (simulated time / wall-clock time over 2 s of simulated time), is printed as
