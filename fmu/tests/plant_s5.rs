@@ -112,11 +112,11 @@ fn with_the_studys_settings_it_gives_the_studys_truth_and_measurements_bit_for_b
     let import = import();
     let mut plant = Plant::new(&import, "study");
     plant.initialise(&reals, &[("manoeuvre", 3), ("noise_seed", settings.seed as i32)], 20.0);
-    for k in 0..truth.time.len() {
+    for (k, z) in measured.iter().enumerate() {
         if k > 0 {
             plant.step((k - 1) as f64 * dt, dt).expect("fmi2DoStep");
         }
-        let expected: Vec<f64> = measured[k]
+        let expected: Vec<f64> = z
             .iter()
             .chain(&truth.deflections[k])
             .chain(&truth.coefficients[k])
