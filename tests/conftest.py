@@ -50,9 +50,12 @@ def build_analyzer(root: Path = ROOT) -> Path:
 
 
 def build_fmus(out: Path, root: Path = ROOT) -> Path:
-    """The release build, then `package-fmus --out OUT`; returns OUT, which
-    holds one `<modelIdentifier>.fmu` per estimator and per plant."""
+    """The release build, its win64 library (after it: package-fmus takes only a DLL as
+    new as the linux64 library), then `package-fmus --out OUT`; returns OUT, which
+    holds one `<modelIdentifier>.fmu` per estimator and per plant, for linux64 and win64."""
     packager = build_release_binary("package-fmus", root)
+    windows = ["cargo", "build", "--release", "-p", "fmu", "--lib", "--target", "x86_64-pc-windows-gnu"]
+    subprocess.run(windows, cwd=root, check=True)
     subprocess.run([str(packager), "--out", str(out)], cwd=root, check=True, capture_output=True, text=True)
     return out
 
