@@ -51,6 +51,7 @@ mod supervised;
 mod supervisor;
 
 pub mod fusion;
+pub mod math;
 pub mod models;
 
 pub use adaptive_noise::SageHusa;

@@ -6,6 +6,7 @@
 mod common;
 
 use common::*;
+use estimator::math;
 use estimator::{build_filter, FilterKind, Noise, SageHusa, UnscentedParams};
 use nalgebra::{DMatrix, DVector};
 
@@ -18,7 +19,7 @@ fn a_wrong_r_is_learnt_and_the_estimates_recover_their_accuracy() {
     let mut x = DVector::from_column_slice(&[0.0, 0.0, 1.0, 1.0]);
     let (mut states, mut zs, mut us) = (Vec::new(), Vec::new(), Vec::new());
     for k in 0..20_000 {
-        let u = vec![(0.05 * k as f64).sin(), (0.013 * k as f64).cos()];
+        let u = vec![math::sin(0.05 * k as f64), math::cos(0.013 * k as f64)];
         x = case.model.a() * &x + case.model.b() * DVector::from_column_slice(&u) + correlated(&mut rng, &case.q);
         zs.push((case.model.h() * &x + correlated(&mut rng, &r)).iter().copied().collect::<Vec<f64>>());
         states.push(x.clone());

@@ -1,6 +1,7 @@
 //! The batched model calls give the point-by-point numbers bit for bit, so a
 //! filter's result does not depend on whether a model overrides them.
 
+use estimator::math;
 use estimator::models::{
     atmosphere, Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, RollVehicle, VerticalVehicle, WheelRailRoll,
     WheelRailVertical,
@@ -152,8 +153,8 @@ fn the_s5_model_s_vectorised_block_law_equals_its_point_law_bit_for_bit() {
 fn s5_as_first_written(a: &Airframe, x: &[f64], c: &[f64], delta: &[f64]) -> ([f64; 10], [f64; 12]) {
     let [vx, vy, vz, phi, _psi, gamma, h, wx, wy, wz] = [x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8], x[9]];
     let speed = (vx * vx + vy * vy + vz * vz).sqrt();
-    let beta = if speed > 0.0 { (vz / speed).clamp(-1.0, 1.0).asin() } else { 0.0 };
-    let alpha = (-vy).atan2(vx);
+    let beta = if speed > 0.0 { math::asin((vz / speed).clamp(-1.0, 1.0)) } else { 0.0 };
+    let alpha = math::atan2(-vy, vx);
     let q = 0.5 * atmosphere::density(h) * speed * speed;
     let qs = q * a.area;
     let f = [
@@ -171,8 +172,8 @@ fn s5_as_first_written(a: &Airframe, x: &[f64], c: &[f64], delta: &[f64]) -> ([f
     ];
     let (g, m) = (a.gravity, a.mass);
     let [ix, iy, iz] = a.inertia;
-    let (sin_phi, cos_phi) = phi.sin_cos();
-    let (sin_gamma, cos_gamma) = gamma.sin_cos();
+    let (sin_phi, cos_phi) = math::sin_cos(phi);
+    let (sin_gamma, cos_gamma) = math::sin_cos(gamma);
     let yaw_pitch = wy * cos_gamma - wz * sin_gamma;
     let d = [
         wz * vy - wy * vz - g * sin_phi + f[0] / m,
@@ -180,7 +181,7 @@ fn s5_as_first_written(a: &Airframe, x: &[f64], c: &[f64], delta: &[f64]) -> ([f
         wy * vx - wx * vy + g * cos_phi * sin_gamma + f[2] / m,
         wy * sin_gamma + wz * cos_gamma,
         yaw_pitch / cos_phi,
-        wx - yaw_pitch * phi.tan(),
+        wx - yaw_pitch * math::tan(phi),
         vx * sin_phi + vy * cos_phi * cos_gamma - vz * cos_phi * sin_gamma,
         ((iy - iz) * wy * wz + moment[0]) / ix,
         ((iz - ix) * wz * wx + moment[1]) / iy,

@@ -3,6 +3,7 @@
 //! the case is named for against an independent reading of the data it writes (a
 //! periodogram, zero crossings, the formula's closed-form integral, fault counts).
 
+use estimator::math;
 use std::f64::consts::TAU;
 
 use truth::s1::load::{Load, Step};
@@ -21,7 +22,7 @@ use truth::s5::manoeuvre::Manoeuvre;
 /// bins `k/(N·dt)` inside the band.
 fn band_power(x: &[f64], dt: f64, lo: f64, hi: f64) -> f64 {
     let n = x.len();
-    let window: Vec<f64> = (0..n).map(|j| 0.5 * (1.0 - (TAU * j as f64 / n as f64).cos())).collect();
+    let window: Vec<f64> = (0..n).map(|j| 0.5 * (1.0 - math::cos(TAU * j as f64 / n as f64))).collect();
     let gain: f64 = window.iter().map(|w| w * w).sum::<f64>();
     let duration = n as f64 * dt;
     let (k0, k1) = ((lo * duration).ceil().max(1.0) as usize, (hi * duration).floor() as usize);
@@ -30,7 +31,7 @@ fn band_power(x: &[f64], dt: f64, lo: f64, hi: f64) -> f64 {
             let (mut re, mut im) = (0.0, 0.0);
             let w = TAU * k as f64 / n as f64;
             // Rotate a phasor rather than calling sin and cos per sample.
-            let (c, s) = (w.cos(), w.sin());
+            let (c, s) = (math::cos(w), math::sin(w));
             let (mut pc, mut ps) = (1.0, 0.0);
             for (v, h) in x.iter().zip(&window) {
                 re += v * h * pc;
@@ -233,7 +234,7 @@ fn s1_unseen_cases_run_with_noise_from_1_to_5_percent() {
 /// `A·Ωc²/(Ωc² − Ωr²)·[atan(Ω/Ωr)/Ωr − atan(Ω/Ωc)/Ωc]`.
 fn german_variance_exact(s: &GermanSpectrum, shortest: f64, longest: f64) -> f64 {
     let (c, r) = (s.cutoff, s.rolloff);
-    let primitive = |o: f64| s.roughness * c * c / (c * c - r * r) * ((o / r).atan() / r - (o / c).atan() / c);
+    let primitive = |o: f64| s.roughness * c * c / (c * c - r * r) * (math::atan(o / r) / r - math::atan(o / c) / c);
     primitive(TAU / shortest) - primitive(TAU / longest)
 }
 

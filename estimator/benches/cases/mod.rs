@@ -3,6 +3,7 @@
 //! count are of the same step: a model with its study's tuning, a simulated measurement
 //! sequence, and the five filters built on it.
 
+use estimator::math;
 use estimator::models::{
     Airframe, Missile6Dof, Oscillator2Dof, Oscillator2DofLoad, RollVehicle, VerticalVehicle, WheelRailRoll,
     WheelRailVertical,
@@ -181,7 +182,7 @@ pub struct MissileWithFins(Missile6Dof);
 impl MissileWithFins {
     /// Roll, pitch and yaw deflections (rad).
     fn fins(t: f64) -> [f64; 3] {
-        [0.01 * (1.3 * t).sin(), 0.03 * (0.7 * t).sin(), 0.02 * (0.9 * t).sin()]
+        [0.01 * math::sin(1.3 * t), 0.03 * math::sin(0.7 * t), 0.02 * math::sin(0.9 * t)]
     }
 }
 

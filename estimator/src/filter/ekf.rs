@@ -12,6 +12,7 @@
 //! The `2n + 1` points `x̂, x̂ ± hⱼ·eⱼ` go to the model in blocks, as the
 //! sigma-point filters' do.
 
+use crate::math;
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{FilterError, Stage};
@@ -89,7 +90,8 @@ impl<M: Model> ExtendedKalman<M> {
         let n = self.core.n();
         let x = self.core.x.as_slice();
         for (j, (step, width)) in self.steps.iter_mut().zip(self.widths.iter_mut()).enumerate() {
-            *step = f64::EPSILON.cbrt() * x[j].abs().max(self.p[(j, j)].max(0.0).sqrt()).max(f64::MIN_POSITIVE.sqrt());
+            *step =
+                math::cbrt(f64::EPSILON) * x[j].abs().max(self.p[(j, j)].max(0.0).sqrt()).max(f64::MIN_POSITIVE.sqrt());
             // The step actually taken after rounding, so that linear maps are differenced exactly.
             *width = (x[j] + *step) - (x[j] - *step);
         }

@@ -1,6 +1,7 @@
 //! What a measurement update reports: the innovation, its covariance, the
 //! normalised innovation squared (NIS) and the Gaussian log-likelihood.
 
+use crate::math;
 use nalgebra::{DMatrix, DVector};
 
 /// Diagnostics of the last update. Rows that were missing (non-finite in `z`)
@@ -96,8 +97,8 @@ impl Innovation {
             }
         }
         self.nis = e[..mv].iter().map(|v| v * v).sum();
-        let log_det: f64 = (0..mv).map(|i| 2.0 * l[i * ld_l + i].abs().ln()).sum();
-        self.log_likelihood = -0.5 * (self.nis + log_det + mv as f64 * (2.0 * std::f64::consts::PI).ln());
+        let log_det: f64 = (0..mv).map(|i| 2.0 * math::ln(l[i * ld_l + i].abs())).sum();
+        self.log_likelihood = -0.5 * (self.nis + log_det + mv as f64 * math::ln(2.0 * std::f64::consts::PI));
     }
 
     /// Records an update in which every row was missing.

@@ -332,6 +332,7 @@ fn rotation(app: f64, aqq: f64, apq: f64) -> (f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math;
 
     #[test]
     fn reconstructs_a_symmetric_matrix_with_orthonormal_vectors() {
@@ -372,7 +373,7 @@ mod tests {
         let n = 12;
         let c =
             DMatrix::from_fn(n, n, |i, j| if i == j { 1.0 } else { 0.3 * (((i * 7 + j * 7) % 5) as f64 - 2.0) / 4.0 });
-        let d: Vec<f64> = (0..n).map(|i| 10f64.powf(-5.0 + 10.0 * i as f64 / (n - 1) as f64)).collect();
+        let d: Vec<f64> = (0..n).map(|i| math::powf(10.0, -5.0 + 10.0 * i as f64 / (n - 1) as f64)).collect();
         let p = DMatrix::from_fn(n, n, |i, j| d[i] * c[(i, j)] * d[j]);
         assert!(p.clone().cholesky().is_some(), "the test matrix is positive definite");
         let mut e = SymmetricEigen::new(n);
@@ -406,8 +407,9 @@ mod tests {
         let b =
             DMatrix::from_fn(n, n, |i, j| (((i * 7 + j * 3) % 11) as f64 - 5.0) / 3.0 + if i == j { 4.0 } else { 0.0 });
         let q = b.qr().q();
-        let lambda =
-            DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| 10f64.powf(-2.0 + 4.0 * i as f64 / (n - 1) as f64)));
+        let lambda = DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| {
+            math::powf(10.0, -2.0 + 4.0 * i as f64 / (n - 1) as f64)
+        }));
         let p = &q * lambda * q.transpose();
         (&p + p.transpose()) / 2.0
     }

@@ -3,6 +3,8 @@
 //! the stratosphere, whose law is used beyond 32 km too (the model must stay defined
 //! wherever a filter's sigma points wander).
 
+use crate::math;
+
 /// Sea-level temperature (K).
 const T0: f64 = 288.15;
 /// Sea-level pressure (Pa).
@@ -35,11 +37,11 @@ pub fn temperature(h: f64) -> f64 {
 pub fn pressure(h: f64) -> f64 {
     let t = temperature(h);
     if h < 11_000.0 {
-        P0 * (t / T0).powf(TROPOSPHERE_EXPONENT)
+        P0 * math::powf(t / T0, TROPOSPHERE_EXPONENT)
     } else if h < 20_000.0 {
-        P11 * (-G0_OVER_R / T11 * (h - 11_000.0)).exp()
+        P11 * math::exp(-G0_OVER_R / T11 * (h - 11_000.0))
     } else {
-        P20 * (T11 / t).powf(STRATOSPHERE_EXPONENT)
+        P20 * math::powf(T11 / t, STRATOSPHERE_EXPONENT)
     }
 }
 

@@ -5,6 +5,7 @@
 //! `docs/studies/s5.md`, where each departure from the printed equations is argued.
 
 use super::atmosphere;
+use crate::math;
 use crate::model::{Component, Observation, VectorField};
 
 /// The airframe: what the estimator knows of the missile besides its force coefficients.
@@ -112,9 +113,9 @@ impl Airframe {
         let speed = lanes(|p| (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]).sqrt());
         let (mut alpha, mut beta, mut density) = ([0.0; L], [0.0; L], [0.0; L]);
         for p in 0..L {
-            alpha[p] = (-vy[p]).atan2(vx[p]);
+            alpha[p] = math::atan2(-vy[p], vx[p]);
             // At rest the sideslip is undefined; zero keeps the model finite for any point.
-            beta[p] = if speed[p] > 0.0 { (vz[p] / speed[p]).clamp(-1.0, 1.0).asin() } else { 0.0 };
+            beta[p] = if speed[p] > 0.0 { math::asin((vz[p] / speed[p]).clamp(-1.0, 1.0)) } else { 0.0 };
             density[p] = atmosphere::density(h[p]);
         }
         AirLanes { speed, dynamic_pressure: lanes(|p| 0.5 * density[p] * speed[p] * speed[p]), alpha, beta }
@@ -194,9 +195,9 @@ impl Airframe {
         let (mut sin_phi, mut cos_phi, mut tan_phi) = ([0.0; L], [0.0; L], [0.0; L]);
         let (mut sin_gamma, mut cos_gamma) = ([0.0; L], [0.0; L]);
         for p in 0..L {
-            (sin_phi[p], cos_phi[p]) = phi[p].sin_cos();
-            tan_phi[p] = phi[p].tan();
-            (sin_gamma[p], cos_gamma[p]) = gamma[p].sin_cos();
+            (sin_phi[p], cos_phi[p]) = math::sin_cos(phi[p]);
+            tan_phi[p] = math::tan(phi[p]);
+            (sin_gamma[p], cos_gamma[p]) = math::sin_cos(gamma[p]);
         }
         let yaw_pitch = lanes::<L>(|p| wy[p] * cos_gamma[p] - wz[p] * sin_gamma[p]);
         dxdt[0] = lanes(|p| wz[p] * vy[p] - wy[p] * vz[p] - g * sin_phi[p] + fx[p] / m);
@@ -307,8 +308,8 @@ mod tests {
         // Velocity below the nose (Vy < 0, y up): positive angle of attack; to the right
         // (Vz > 0, z right): positive sideslip.
         let air = a.air(&[1000.0, -50.0, 30.0], 10_000.0);
-        assert!((air.alpha - (50.0f64 / 1000.0).atan()).abs() < 1e-15);
-        assert!((air.beta - (30.0 / air.speed).asin()).abs() < 1e-15);
+        assert!((air.alpha - math::atan(50.0 / 1000.0)).abs() < 1e-15);
+        assert!((air.beta - math::asin(30.0 / air.speed)).abs() < 1e-15);
     }
 
     #[test]

@@ -21,6 +21,7 @@
 //! `P⁻ = Y·Yᵀ + S_Q·S_Qᵀ`), `G` comes from two triangular solves with `S⁻` and the
 //! smoothed root is `Tria([X − G·Y, G·S_Q, G·S_s'])`, whose product is `P_s` above.
 
+use crate::math;
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::FilterError;
@@ -123,7 +124,7 @@ pub fn linearised_cross_covariance(
     let (mut plus, mut minus) = (vec![0.0; n], vec![0.0; n]);
     for j in 0..n {
         let m = filtered.mean[j];
-        let step = f64::EPSILON.cbrt()
+        let step = math::cbrt(f64::EPSILON)
             * m.abs().max(filtered.covariance[(j, j)].max(0.0).sqrt()).max(f64::MIN_POSITIVE.sqrt());
         let mut x = filtered.mean.clone();
         x[j] = m + step;
@@ -348,7 +349,7 @@ mod tests {
         let r = DMatrix::from_diagonal(&DVector::from_vec(vec![1e-4, 4e-2]));
         // A fixed, varied measurement sequence (the smoother's algebra, not the data, is checked).
         let zs: Vec<DVector<f64>> = (0..200)
-            .map(|k| DVector::from_vec(vec![(0.07 * k as f64).sin() * 0.1, (0.031 * k as f64).cos()]))
+            .map(|k| DVector::from_vec(vec![math::sin(0.07 * k as f64) * 0.1, math::cos(0.031 * k as f64)]))
             .collect();
         let mut filtered = Vec::new();
         let mut predicted = Vec::new();

@@ -43,6 +43,7 @@
 //! where the data can tell them apart.
 
 use super::outcome::Outcome;
+use crate::math;
 
 /// Below this share of `S` made by `P`, a scale on `Q` barely moves the
 /// innovations: the step is that of this share (bounded, and the scale's
@@ -67,7 +68,7 @@ impl Adaptation {
 
     /// The scale on `Q`.
     pub fn scale(&self) -> f64 {
-        self.log_scale.exp()
+        math::exp(self.log_scale)
     }
 
     /// Learns from a committed sample's outcome (nothing when the adaptation
@@ -89,7 +90,7 @@ impl Adaptation {
         // filter's own time constant, and larger steps overshoot.
         let step = newton.clamp(-1.0 / window, 1.0 / window);
         if step.is_finite() {
-            let (low, high) = (settings.min_process_noise_scale.ln(), settings.max_process_noise_scale.ln());
+            let (low, high) = (math::ln(settings.min_process_noise_scale), math::ln(settings.max_process_noise_scale));
             self.log_scale = (self.log_scale + step).clamp(low, high);
         }
     }
@@ -100,7 +101,7 @@ impl Adaptation {
         self.mean_ratio.is_finite()
             && self.mean_ratio >= 0.0
             && s.is_finite()
-            && s >= settings.min_process_noise_scale.ln() - 1e-12
-            && s <= settings.max_process_noise_scale.ln() + 1e-12
+            && s >= math::ln(settings.min_process_noise_scale) - 1e-12
+            && s <= math::ln(settings.max_process_noise_scale) + 1e-12
     }
 }

@@ -2,6 +2,7 @@
 //! independently of the library, and seeded data sets.
 #![allow(dead_code)]
 
+use estimator::math;
 use estimator::models::{LinearGaussian, Oscillator2Dof, Oscillator2DofLoad, VerticalVehicle, WheelRailVertical};
 use estimator::{Discretized, Gaussian, Noise, VectorField};
 use nalgebra::{DMatrix, DVector};
@@ -87,7 +88,7 @@ pub fn linear_case(steps: usize, seed: u64) -> LinearCase {
     let mut x = DVector::from_column_slice(&[0.0, 0.0, 1.0, 1.0]);
     let (mut inputs, mut measurements) = (Vec::new(), Vec::new());
     for k in 0..steps {
-        let u = vec![(0.05 * k as f64).sin(), (0.013 * k as f64).cos()];
+        let u = vec![math::sin(0.05 * k as f64), math::cos(0.013 * k as f64)];
         x = model.a() * &x + model.b() * DVector::from_column_slice(&u) + correlated(&mut rng, &q);
         let z = model.h() * &x + correlated(&mut rng, &r);
         inputs.push(u);
@@ -108,8 +109,8 @@ pub fn s1_measurements(steps: usize, dt: f64, amplitude: f64, noise_std: f64, se
     let chain = Oscillator2Dof::stiffness_nonlinear();
     let plant = Oscillator2DofLoad::new(chain);
     let load = |t: f64| {
-        amplitude * 8.0 * (2.0 * std::f64::consts::PI * 1.0 * t).sin()
-            + amplitude * 4.0 * (2.0 * std::f64::consts::PI * 3.0 * t).cos()
+        amplitude * 8.0 * math::sin(2.0 * std::f64::consts::PI * 1.0 * t)
+            + amplitude * 4.0 * math::cos(2.0 * std::f64::consts::PI * 3.0 * t)
     };
     let mut rng = rng(seed);
     let sub = 50;
@@ -169,6 +170,6 @@ pub fn wheel_rail_case(samples: usize) -> (Discretized<WheelRailVertical>, Noise
     let mut mean = [0.0; 24];
     mean[20..].fill(VerticalVehicle::zhai_passenger().static_wheel_load);
     let prior = Gaussian::diagonal(&mean, &[1e-2; 24]);
-    let zs = (0..samples).map(|k| (0..7).map(|i| 0.5 * ((k * (i + 1)) as f64 * 0.1).sin()).collect()).collect();
+    let zs = (0..samples).map(|k| (0..7).map(|i| 0.5 * math::sin((k * (i + 1)) as f64 * 0.1)).collect()).collect();
     (model, noise, prior, zs)
 }

@@ -44,6 +44,7 @@
 //!   (8.3 s per octave over 60 s), the chain's modes (0.1–0.6 Hz) crossed
 //!   slowly, `F(0) = 0` as the chain starts at rest. Deterministic.
 
+use estimator::math;
 use std::f64::consts::TAU;
 
 use rand::{RngExt, SeedableRng};
@@ -77,26 +78,26 @@ pub struct Chirp {
 impl Chirp {
     /// The sweep rate `ln(end/start)/duration` (1/s).
     fn rate(&self) -> f64 {
-        (self.end / self.start).ln() / self.duration
+        math::ln(self.end / self.start) / self.duration
     }
 
     /// The instantaneous frequency `f(t) = start·e^{rate·t}` (Hz).
     pub fn frequency(&self, t: f64) -> f64 {
-        self.start * (self.rate() * t).exp()
+        self.start * math::exp(self.rate() * t)
     }
 
     /// The phase `φ(t) = 2π·start·(e^{rate·t} − 1)/rate` (rad), `φ(0) = 0`.
     pub fn phase(&self, t: f64) -> f64 {
         let r = self.rate();
-        TAU * self.start * (r * t).exp_m1() / r
+        TAU * self.start * math::exp_m1(r * t) / r
     }
 
     fn value(&self, t: f64) -> f64 {
-        self.amplitude * self.phase(t).sin()
+        self.amplitude * math::sin(self.phase(t))
     }
 
     fn derivative(&self, t: f64) -> f64 {
-        self.amplitude * self.phase(t).cos() * TAU * self.frequency(t)
+        self.amplitude * math::cos(self.phase(t)) * TAU * self.frequency(t)
     }
 }
 
@@ -116,13 +117,13 @@ impl Step {
 
     fn value(&self, t: f64) -> f64 {
         let u = ((t - self.at) / Self::RISE).clamp(0.0, 1.0);
-        self.size * 0.5 * (1.0 - (std::f64::consts::PI * u).cos())
+        self.size * 0.5 * (1.0 - math::cos(std::f64::consts::PI * u))
     }
 
     fn rate(&self, t: f64) -> f64 {
         let u = (t - self.at) / Self::RISE;
         if (0.0..=1.0).contains(&u) {
-            self.size * 0.5 * std::f64::consts::PI / Self::RISE * (std::f64::consts::PI * u).sin()
+            self.size * 0.5 * std::f64::consts::PI / Self::RISE * math::sin(std::f64::consts::PI * u)
         } else {
             0.0
         }
@@ -251,7 +252,7 @@ impl Load {
     /// `F(t)`.
     pub fn value(&self, t: f64) -> f64 {
         let step = self.extra(t);
-        self.components.iter().map(|(a, w, p)| a * (w * t + p).cos()).sum::<f64>() + step
+        self.components.iter().map(|(a, w, p)| a * math::cos(w * t + p)).sum::<f64>() + step
     }
 
     /// `F(t₀ + j·step)` for `j = 0 … count−1`, by rotating each component's
@@ -275,13 +276,13 @@ impl Load {
         assert_eq!(first % Self::ANCHOR, 0, "a piece of the table starts at an anchor");
         out.clear();
         let rotation: Vec<(f64, f64)> =
-            self.components.iter().map(|(_, w, _)| ((w * step).cos(), (w * step).sin())).collect();
+            self.components.iter().map(|(_, w, _)| (math::cos(w * step), math::sin(w * step))).collect();
         let mut phasor = vec![(0.0, 0.0); self.components.len()];
         for j in first..first + count {
             if j % Self::ANCHOR == 0 {
                 let t = t0 + j as f64 * step;
                 for (z, (a, w, p)) in phasor.iter_mut().zip(&self.components) {
-                    *z = (a * (w * t + p).cos(), a * (w * t + p).sin());
+                    *z = (a * math::cos(w * t + p), a * math::sin(w * t + p));
                 }
             }
             let step = self.extra(t0 + j as f64 * step);
@@ -295,7 +296,7 @@ impl Load {
     /// `Ḟ(t)`.
     pub fn rate(&self, t: f64) -> f64 {
         let step = self.extra_rate(t);
-        self.components.iter().map(|(a, w, p)| -a * w * (w * t + p).sin()).sum::<f64>() + step
+        self.components.iter().map(|(a, w, p)| -a * w * math::sin(w * t + p)).sum::<f64>() + step
     }
 }
 

@@ -14,6 +14,7 @@
 //! Shared by every recorded truth (S2's and S3's): [`check_recording`], what a recording's
 //! settings must be, and [`with_noise`], the sensors' white noise.
 
+use estimator::math;
 use std::f64::consts::PI;
 
 use rand_chacha::ChaCha8Rng;
@@ -79,9 +80,9 @@ impl AntiAlias {
         let mut taps: Vec<f64> = (0..length)
             .map(|n| {
                 let x = n as f64 - half as f64;
-                let sinc = if x == 0.0 { 2.0 * cutoff } else { (2.0 * PI * cutoff * x).sin() / (PI * x) };
+                let sinc = if x == 0.0 { 2.0 * cutoff } else { math::sin(2.0 * PI * cutoff * x) / (PI * x) };
                 let phase = 2.0 * PI * n as f64 / (length - 1) as f64;
-                sinc * (0.42 - 0.5 * phase.cos() + 0.08 * (2.0 * phase).cos())
+                sinc * (0.42 - 0.5 * math::cos(phase) + 0.08 * math::cos(2.0 * phase))
             })
             .collect();
         let sum: f64 = taps.iter().sum();
@@ -107,7 +108,7 @@ impl AntiAlias {
     pub fn gain(&self, frequency: f64, dt: f64) -> f64 {
         let half = self.half_length() as f64;
         let w = 2.0 * PI * frequency * dt;
-        self.taps.iter().enumerate().map(|(n, t)| t * (w * (n as f64 - half)).cos()).sum::<f64>().abs()
+        self.taps.iter().enumerate().map(|(n, t)| t * math::cos(w * (n as f64 - half))).sum::<f64>().abs()
     }
 }
 
@@ -122,11 +123,11 @@ mod tests {
         for rate in [200.0, 1000.0] {
             let daq = AntiAlias::new(DT, rate);
             for f in [0.0, 0.1 * rate, 0.25 * rate, 0.4 * rate] {
-                let db = 20.0 * daq.gain(f, DT).log10();
+                let db = 20.0 * math::log10(daq.gain(f, DT));
                 assert!(db.abs() < 0.01, "{rate} Hz: {db} dB at {f} Hz");
             }
             for f in [0.5 * rate, 0.6 * rate, rate, 2.2 * rate, 4.0 * rate] {
-                let db = 20.0 * daq.gain(f, DT).log10();
+                let db = 20.0 * math::log10(daq.gain(f, DT));
                 assert!(db < -70.0, "{rate} Hz: {db} dB at {f} Hz");
             }
         }
@@ -136,8 +137,8 @@ mod tests {
     fn a_tone_above_half_the_rate_does_not_reach_the_samples_and_one_below_keeps_its_phase() {
         let daq = AntiAlias::new(DT, 200.0);
         // 222 Hz, the weld's short wave at 80 km/h: point sampling at 200 Hz would read it as 22 Hz.
-        let fast = |i: usize| (2.0 * PI * 222.0 * i as f64 * DT).sin();
-        let slow = |i: usize| (2.0 * PI * 30.0 * i as f64 * DT + 0.3).sin();
+        let fast = |i: usize| math::sin(2.0 * PI * 222.0 * i as f64 * DT);
+        let slow = |i: usize| math::sin(2.0 * PI * 30.0 * i as f64 * DT + 0.3);
         for k in (5_000..6_000).step_by(50) {
             assert!(daq.at(k, fast).abs() < 1e-3, "{}", daq.at(k, fast));
             // Centred, so no delay: the sample is the tone's value at its own instant.

@@ -27,6 +27,7 @@
 //! `cases::Settings::spectrum` picks one for the random case, and a seed draws the same
 //! phases whatever the spectrum.
 
+use estimator::math;
 use std::fmt;
 
 use rand::{RngExt, SeedableRng};
@@ -46,11 +47,11 @@ pub trait Spectrum {
 
 /// `∫ S(Ω) dΩ` from `2π/longest` to `2π/shortest` by Simpson's rule in log Ω (4000 panels).
 fn simpson_log(density: impl Fn(f64) -> f64, shortest: f64, longest: f64) -> f64 {
-    let (a, b) = ((std::f64::consts::TAU / longest).ln(), (std::f64::consts::TAU / shortest).ln());
+    let (a, b) = (math::ln(std::f64::consts::TAU / longest), math::ln(std::f64::consts::TAU / shortest));
     let n = 4000;
     let h = (b - a) / n as f64;
     // ∫ S(Ω) dΩ = ∫ S(e^u)·e^u du.
-    let f = |u: f64| density(u.exp()) * u.exp();
+    let f = |u: f64| density(math::exp(u)) * math::exp(u);
     let inner: f64 = (1..n).map(|i| f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 }).sum();
     (f(a) + inner + f(b)) * h / 3.0
 }
@@ -263,7 +264,7 @@ impl RandomProfile {
         let values = (0..points)
             .map(|i| {
                 let x = start + (i as f64 - 1.0) * Self::GRID;
-                lines.iter().map(|(omega, amplitude, phase)| amplitude * (omega * x + phase).cos()).sum()
+                lines.iter().map(|(omega, amplitude, phase)| amplitude * math::cos(omega * x + phase)).sum()
             })
             .collect();
         Self { start, step: Self::GRID, values }
@@ -336,7 +337,7 @@ impl Irregularity {
                 if x < *start {
                     0.0
                 } else {
-                    0.5 * depth * (1.0 - (TAU * (x - start) / wavelength).cos())
+                    0.5 * depth * (1.0 - math::cos(TAU * (x - start) / wavelength))
                 }
             }
             Irregularity::Weld { at, long: (a1, l1), short: (a2, l2) } => {
@@ -344,9 +345,9 @@ impl Irregularity {
                 if !(0.0..*l1).contains(&s) {
                     return 0.0;
                 }
-                let mut z = 0.5 * a1 * (1.0 - (TAU * s / l1).cos());
+                let mut z = 0.5 * a1 * (1.0 - math::cos(TAU * s / l1));
                 if ((l1 - l2) / 2.0..(l1 + l2) / 2.0).contains(&s) {
-                    z += 0.5 * a2 * (1.0 - (std::f64::consts::PI / l2 * (2.0 * s - l1 + l2)).cos());
+                    z += 0.5 * a2 * (1.0 - math::cos(std::f64::consts::PI / l2 * (2.0 * s - l1 + l2)));
                 }
                 z
             }

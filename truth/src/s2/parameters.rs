@@ -6,6 +6,8 @@
 //! one spring per bogie side, as the tables give them per side. Each wheel then carries
 //! `P0 = (m_c + 2m_t + 4m_w)·g / 8`. Coordinates point down (Zhai's convention).
 
+use estimator::math;
+
 /// Gravity (m/s²).
 pub const G: f64 = 9.81;
 
@@ -70,7 +72,7 @@ impl Vehicle {
     /// The Hertz coefficient `G` of a conical tread (m/N^(2/3)):
     /// `4.57·R^−0.149·1e-8`. [src: `[Zhai2015]`]
     pub fn hertz_coefficient(&self) -> f64 {
-        4.57e-8 * self.wheel_radius.powf(-0.149)
+        4.57e-8 * math::powf(self.wheel_radius, -0.149)
     }
 
     /// The wheels' positions along the track relative to the car body's centre (m), front

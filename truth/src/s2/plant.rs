@@ -12,6 +12,7 @@ use super::irregularity::Irregularity;
 use super::parameters::{Track, Vehicle};
 use super::track::{Layout, TrackModel};
 use super::vehicle::{wheelset, VehicleModel, DOFS};
+use estimator::math;
 
 /// Zhai's integration parameters ψ and φ.
 const PSI: f64 = 0.5;
@@ -141,7 +142,7 @@ impl Simulation {
             let (z, _) = simulation.track.rail_at(shape, &simulation.u, &simulation.v, layout);
             *r = z + simulation.irregularity.at(simulation.wheel_positions()[j]);
         }
-        let compression = simulation.hertz * load.powf(2.0 / 3.0);
+        let compression = simulation.hertz * math::powf(load, 2.0 / 3.0);
         simulation.u[..DOFS].copy_from_slice(&vehicle.static_state(&rail, compression));
         simulation.evaluate();
         simulation
@@ -249,7 +250,7 @@ impl Simulation {
             let shape = &self.wheel_shapes[j * modes..(j + 1) * modes];
             let (rail, _) = self.track.rail_at(shape, &self.u, &self.v, self.layout);
             let compression = self.u[wheelset(j)] - rail - self.irregularity.at(*x);
-            self.contact[j] = if compression > 0.0 { (compression / self.hertz).powf(1.5) } else { 0.0 };
+            self.contact[j] = if compression > 0.0 { math::powf(compression / self.hertz, 1.5) } else { 0.0 };
         }
         self.vehicle.accelerations(&self.u[..DOFS], &self.v[..DOFS], &self.contact, &mut self.a[..DOFS]);
         self.track.accelerations(&self.u, &self.v, self.layout, &self.wheel_shapes, &self.contact, &mut self.a);

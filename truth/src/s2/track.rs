@@ -19,6 +19,7 @@
 //! (37 Hz at 80 km/h), the short weld wave (222 Hz) and the pinned–pinned mode (about
 //! 1 kHz), and below the 1/(πΔt) ≈ 3.2 kHz that the explicit step of 1e-4 s resolves.
 
+use estimator::math;
 use nalgebra::{DMatrix, DVector};
 
 use super::parameters::Track;
@@ -96,7 +97,7 @@ impl TrackModel {
     pub fn mode_shapes(&self, x: f64, out: &mut [f64]) {
         let norm = (2.0 / (self.track.rail_mass_per_metre * self.length)).sqrt();
         let theta = std::f64::consts::PI * x / self.length;
-        let (s1, twice_cos) = (theta.sin(), 2.0 * theta.cos());
+        let (s1, twice_cos) = (math::sin(theta), 2.0 * math::cos(theta));
         let (mut previous, mut current) = (0.0, s1);
         for z in out.iter_mut().take(self.modes) {
             *z = norm * current;
@@ -184,9 +185,9 @@ impl TrackModel {
         // ∫_0^X cos(αx + φ) dx
         let integral = |alpha: f64, phi: f64| {
             if alpha.abs() < 1e-12 {
-                x_end * phi.cos()
+                x_end * math::cos(phi)
             } else {
-                ((alpha * x_end + phi).sin() - phi.sin()) / alpha
+                (math::sin(alpha * x_end + phi) - math::sin(phi)) / alpha
             }
         };
         DMatrix::from_fn(self.modes, self.modes, |k, j| {

@@ -27,6 +27,7 @@
 //! the cone, the rails' own lateral and roll motion.
 
 use super::parameters::Vehicle;
+use estimator::math;
 
 /// What a contact needs of the wheelset and the rail.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,7 +89,7 @@ impl Contact {
 
     /// The compression of the contact under the static wheel load (m).
     pub fn static_compression(&self) -> f64 {
-        self.hertz * self.static_load.powf(2.0 / 3.0)
+        self.hertz * math::powf(self.static_load, 2.0 / 3.0)
     }
 
     /// The forces at side `side` (+1 left, −1 right) at speed `speed` (m/s, > 0).
@@ -100,9 +101,9 @@ impl Contact {
         if compression <= 0.0 {
             return ContactForces::default();
         }
-        let normal = (compression / self.hertz).powf(1.5);
+        let normal = math::powf(compression / self.hertz, 1.5);
         // The contact patch grows as N^{2/3}, and Kalker's coefficients with its area.
-        let patch = (normal / self.static_load).powf(2.0 / 3.0);
+        let patch = math::powf(normal / self.static_load, 2.0 / 3.0);
         let radius_change = s * slope * across;
         let longitudinal_creepage = -s * a0 * w.yaw_rate / speed - radius_change / r0;
         let lateral_creepage = (w.lateral_rate - r0 * w.roll_rate) / speed - w.yaw;

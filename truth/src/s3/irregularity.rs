@@ -18,6 +18,7 @@
 //! of it and the right up by half.
 
 use crate::s2::irregularity::{GermanSpectrum, RandomProfile, Spectrum};
+use estimator::math;
 
 /// Half the distance between the rolling circles `b` in the cross-level spectrum's
 /// definition (m). [src: `[German-PSD]`]
@@ -165,7 +166,7 @@ impl Irregularity {
                 if s <= 0.0 {
                     return Rails::default();
                 }
-                let fade = if s >= 1.0 { 1.0 } else { 0.5 * (1.0 - (std::f64::consts::PI * s).cos()) };
+                let fade = if s >= 1.0 { 1.0 } else { 0.5 * (1.0 - math::cos(std::f64::consts::PI * s)) };
                 let (mean, half) = (track.vertical.at(x), CROSS_LEVEL_HALF_SPAN * track.cross_level.at(x));
                 Rails {
                     left: fade * (mean + half),
@@ -178,7 +179,7 @@ impl Irregularity {
                 if !(0.0..*length).contains(&s) {
                     return Rails::default();
                 }
-                let shape = 0.5 * (1.0 - (std::f64::consts::TAU * s / length).cos());
+                let shape = 0.5 * (1.0 - math::cos(std::f64::consts::TAU * s / length));
                 Rails { left: left * shape, right: right * shape, alignment: 0.0 }
             }
             Irregularity::Twist { start, length, change } => {
