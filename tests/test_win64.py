@@ -7,14 +7,14 @@ the win64 `.dll` under wine. What is specified here:
 
 - every FMU packs `binaries/linux64/<id>.so` and `binaries/win64/<id>.dll` beside one
   modelDescription;
-- the two binaries make the same calls succeed and fail alike, and give the same outputs
-  to the last bits the platforms' C maths libraries round differently (`RELATIVE`), on
-  the same inputs: every estimator under every filter kind (its inputs those of the
-  behavioural tests, `test_fmu.case`), every plant at its defaults, each through an FMU
-  state saved, serialised, deserialised and restored mid-run (which replays the same
-  outputs, bit for bit), and a step that fails with fmi2Discard, at the same step on both
-  (S5's CKF told sensors a thousand times better than they are, as in `test_fmu_s5.py`).
-  Bit for bit across the platforms is not met yet: see `RELATIVE`.
+- the two binaries give the same statuses and the same outputs, bit for bit, on the same
+  inputs: every estimator under every filter kind (its inputs those of the behavioural
+  tests, `test_fmu.case`), every plant at its defaults, each through an FMU state saved,
+  serialised, deserialised and restored mid-run (which replays the same outputs), and a
+  step that fails with fmi2Discard, at the same step on both (S5's CKF told sensors a
+  thousand times better than they are, as in `test_fmu_s5.py`). They can because every
+  elementary function is computed by Rust code (`estimator::math`), not by the platform's
+  C library, which rounds `exp`, `sin`, `cbrt` … differently on each.
 
 Wine 8 lacks `ProcessPrng`, which Rust's standard library imports on Windows: the stub
 `win64/bcryptprimitives.c` (why, beside it) is built and put beside the Windows master.
@@ -117,8 +117,8 @@ def script_of(md, name: str, rows, setup: list[str], dt: float) -> str:
 
 
 def assert_same_and_replayed(linux: str, win64: str) -> None:
-    """Both outputs agree (`assert_agree`); in each instance's, what follows `restore`
-    begins with what followed `save`, bit for bit."""
+    """Both outputs are the same (`assert_agree`); in each instance's, what follows
+    `restore` begins with what followed `save`, bit for bit."""
     assert_agree(linux, win64)
     for block in linux.split("instantiate ")[1:]:
         lines = block.splitlines()
@@ -128,34 +128,9 @@ def assert_same_and_replayed(linux: str, win64: str) -> None:
         assert run and lines[restored + 1 : restored + 1 + len(run)] == run, "the restored state replays the outputs"
 
 
-#: How far a win64 output may be from the linux64 one: the platforms' C maths libraries
-#: (glibc's and mingw-w64's exp, sin, cbrt, pow …) round differently in the last bit, and
-#: the filters carry that on. Measured: up to 4e-5 of the value (S4's fusion), most values
-#: equal to the bit. The goal is none at all: the elementary functions in pure Rust.
-RELATIVE, ABSOLUTE = 1e-4, 1e-9
-
-
 def assert_agree(linux: str, win64: str) -> None:
-    """The same calls with the same statuses, line by line (a discarded step at the same
-    step), and every number within RELATIVE of the linux64 one (ABSOLUTE near 0)."""
-    a, b = linux.splitlines(), win64.splitlines()
-    assert len(a) == len(b), first_difference(linux, win64)
-    worst, differ, numbers = 0.0, 0, 0
-    for k, (x, y) in enumerate(zip(a, b)):
-        xs, ys = x.split(), y.split()
-        numeric = xs[0] in ("get", "last")
-        assert xs[: 2 if numeric else None] == ys[: 2 if numeric else None], f"line {k + 1}: {x[:80]!r} against {y[:80]!r}"
-        if not numeric:
-            continue
-        u = np.array([int(h, 16) for h in xs[2:]], dtype=np.uint64).view(np.float64)
-        v = np.array([int(h, 16) for h in ys[2:]], dtype=np.uint64).view(np.float64)
-        same = (u == v) | (np.isnan(u) & np.isnan(v))
-        numbers, differ = numbers + len(u), differ + int(np.sum(~same))
-        bound = RELATIVE * np.maximum(np.abs(u), np.abs(v)) + ABSOLUTE
-        assert np.all(same | (np.abs(u - v) <= bound)), f"line {k + 1}: {first_difference(x, y)}"
-        if not np.all(same):
-            worst = max(worst, float(np.max(np.abs(u - v)[~same] / np.maximum(np.abs(u), np.abs(v))[~same])))
-    print(f"{differ} of {numbers} outputs differ from the linux64 binary's bits; the largest by {worst:.2e} of the value")
+    """The same calls with the same statuses and every number the same, bit for bit."""
+    assert win64 == linux, first_difference(linux, win64)
 
 
 def first_difference(a: str, b: str) -> str:
@@ -173,7 +148,7 @@ def test_every_fmu_packs_both_binaries_beside_one_model_description(short, fmu_d
     assert {f"binaries/linux64/{identifier}.so", f"binaries/win64/{identifier}.dll", "modelDescription.xml"} <= names
 
 
-def test_each_estimator_under_every_filter_kind_agrees_with_linux64(
+def test_each_estimator_under_every_filter_kind_is_the_same_bit_for_bit(
     case, fmu_dir, masters, wine_environment, tmp_path
 ):
     md = case.model_description
@@ -192,7 +167,7 @@ def test_each_estimator_under_every_filter_kind_agrees_with_linux64(
 
 
 @pytest.mark.parametrize("short", list(PLANT_FMUS))
-def test_each_plant_agrees_with_linux64(short, fmu_dir, masters, wine_environment, tmp_path):
+def test_each_plant_is_the_same_bit_for_bit(short, fmu_dir, masters, wine_environment, tmp_path):
     fmu = packaged(fmu_dir, PLANT_FMUS[short])
     md = read_model_description(str(fmu))
     inputs = [v for v in md.modelVariables if v.causality == "input"]
@@ -201,7 +176,7 @@ def test_each_plant_agrees_with_linux64(short, fmu_dir, masters, wine_environmen
     assert_same_and_replayed(linux, win64)
 
 
-def test_a_discarded_step_is_discarded_on_both(s5_fmu, kalfmu_bin, masters, wine_environment, tmp_path):
+def test_a_discarded_step_is_the_same_bit_for_bit(s5_fmu, kalfmu_bin, masters, wine_environment, tmp_path):
     table_path = tmp_path / "s5.csv"
     subprocess.run([str(kalfmu_bin), "s5-export", "--duration", "2", "--out", str(table_path)], check=True)
     table = read_s5_table(table_path)
