@@ -32,6 +32,16 @@ pub trait Plant {
     fn restore(&mut self, saved: &[u8]) -> Result<(), String>;
 }
 
+/// How many integration steps of `step` the communication step `h` is; refused when it is
+/// no whole number of them.
+fn integration_steps(h: f64, step: f64) -> Result<usize, String> {
+    let steps = (h / step).round();
+    if steps < 1.0 || (steps * step - h).abs() > 1e-9 * h {
+        return Err(format!("the communication step {h} s is not a whole number of integration steps ({step} s)"));
+    }
+    Ok(steps as usize)
+}
+
 /// Writes a noise stream's position (a `u128`) as two `u64`.
 fn write_position(w: &mut Writer, position: u128) {
     w.u64(position as u64);

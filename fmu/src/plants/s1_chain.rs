@@ -13,7 +13,7 @@ use truth::s1::load::Load;
 use truth::s1::plant::{ChainPlant, LoadSource};
 use truth::sensor_noise::SensorNoise;
 
-use super::{read_position, write_position, Plant, PlantDescriptor};
+use super::{integration_steps, read_position, write_position, Plant, PlantDescriptor};
 use crate::estimators::s1_load::{chain, chain_variables};
 use crate::estimators::DefaultExperiment;
 use crate::serialize::{Reader, Writer};
@@ -159,14 +159,7 @@ impl Plant for Chain {
     }
 
     fn advance(&mut self, h: f64) -> Result<(), String> {
-        let steps = (h / self.h).round();
-        if steps < 1.0 || (steps * self.h - h).abs() > 1e-9 * h {
-            return Err(format!(
-                "the communication step {h} s is not a whole number of integration steps ({} s)",
-                self.h
-            ));
-        }
-        self.plant.advance(steps as usize);
+        self.plant.advance(integration_steps(h, self.h)?);
         self.current_noise = self.noise.measure([0.0; 2]);
         Ok(())
     }

@@ -17,7 +17,7 @@ use truth::s5::parameters::{start, AFTER, BEFORE, NAMES, SENSOR_STD};
 use truth::s5::plant::{Flight, FlyingPlant, Motion};
 use truth::sensor_noise::SensorNoise;
 
-use super::{read_position, write_position, Plant, PlantDescriptor};
+use super::{integration_steps, read_position, write_position, Plant, PlantDescriptor};
 use crate::estimators::DefaultExperiment;
 use crate::serialize::{Reader, Writer};
 use crate::variables::{EnumerationType, Kind, Parameters, Role, Variable};
@@ -258,14 +258,7 @@ impl Plant for Missile {
     }
 
     fn advance(&mut self, h: f64) -> Result<(), String> {
-        let steps = (h / self.h).round();
-        if steps < 1.0 || (steps * self.h - h).abs() > 1e-9 * h {
-            return Err(format!(
-                "the communication step {h} s is not a whole number of integration steps ({} s)",
-                self.h
-            ));
-        }
-        self.plant.advance(steps as usize)?;
+        self.plant.advance(integration_steps(h, self.h)?)?;
         self.current_noise = self.noise.measure([0.0; 12]);
         Ok(())
     }
