@@ -4,37 +4,81 @@
 //! how fast the whole system ran. Each study says what its system holds (`s1/system.rs`,
 //! `s2/system.rs`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use cosim::ssp::{Component, Connection, Experiment, System};
+use cosim::fmu_driver::ImportedFmu;
+use cosim::ssp::{self, Component, Connection, Experiment, System};
 use cosim::system_master::{self, Recorded};
 use log_format::read::{read_log, Channel};
 use log_format::write::{ESTIMATE, TRUTH};
-use start_values::ssv::ParameterSet;
+use start_values::ssv::{Parameter, ParameterSet, ValueKind};
+use start_values::StartValues;
 
 /// The components' names in every study's system.
 pub const PLANT: &str = "plant";
 /// See [`PLANT`].
 pub const ESTIMATOR: &str = "estimator";
 
-/// The system of a study: `plant_fmu` (`resources/<id>.fmu`) with its outputs `measured`
-/// connected to the inputs of the same names of `estimator_fmu`, `parameters` bound,
-/// over `experiment`.
+/// The parameter set of a study's system: its FMUs' parameters bound as
+/// `<component>.<name>`.
+#[derive(Debug, Clone)]
+pub struct Bindings(ParameterSet);
+
+impl Bindings {
+    /// No binding yet, in a set named `name`.
+    pub fn new(name: &str) -> Self {
+        Self(ParameterSet::new(name))
+    }
+
+    /// Binds `component.name` to `value`, over an earlier binding of that name.
+    pub fn put(&mut self, component: &str, name: &str, value: f64, kind: ValueKind) {
+        let name = format!("{component}.{name}");
+        self.0.parameters.retain(|p| p.name != name);
+        self.0.parameters.push(Parameter { name, value, kind, unit: None, description: None });
+    }
+
+    /// The user's start values over the estimator's bindings, each of the type the FMU
+    /// gives its variable; refused for a name the FMU does not have.
+    pub fn start_values(&mut self, start_values: &StartValues, estimator: &ImportedFmu) -> anyhow::Result<()> {
+        for (name, value) in start_values.iter() {
+            let kind =
+                estimator.value_kind(name).with_context(|| format!("start value {name}: no parameter of the FMU"))?;
+            self.put(ESTIMATOR, name, value, kind);
+        }
+        Ok(())
+    }
+
+    /// The set, every estimator binding checked to name a variable of `estimator`: a
+    /// renamed parameter fails here, not in a run.
+    pub fn checked(self, estimator: &ImportedFmu) -> anyhow::Result<ParameterSet> {
+        for p in &self.0.parameters {
+            if let Some(name) = p.name.strip_prefix("estimator.") {
+                estimator.value_kind(name).with_context(|| format!("{name} is no parameter of the estimator FMU"))?;
+            }
+        }
+        Ok(self.0)
+    }
+}
+
+/// The system of a study: the plant FMU `plant_id` with its outputs `measured` connected to
+/// the inputs of the same names of the estimator FMU `estimator_id` (each as
+/// `resources/<id>.fmu`), `parameters` bound, over `experiment`.
 pub fn plant_to_estimator(
     name: &str,
-    (plant_fmu, estimator_fmu): (&str, &str),
+    (plant_id, estimator_id): (&str, &str),
     measured: &[&str],
     parameters: ParameterSet,
     experiment: Experiment,
 ) -> System {
     let connectors = |input: bool| measured.iter().map(|n| (n.to_string(), input)).collect();
+    let source = |id: &str| format!("resources/{id}.fmu");
     System {
         name: name.into(),
         components: vec![
-            Component { name: PLANT.into(), source: plant_fmu.into(), connectors: connectors(false) },
-            Component { name: ESTIMATOR.into(), source: estimator_fmu.into(), connectors: connectors(true) },
+            Component { name: PLANT.into(), source: source(plant_id), connectors: connectors(false) },
+            Component { name: ESTIMATOR.into(), source: source(estimator_id), connectors: connectors(true) },
         ],
         connections: measured
             .iter()
@@ -43,6 +87,21 @@ pub fn plant_to_estimator(
         parameters,
         experiment,
     }
+}
+
+/// Writes `system` as an `.ssp` at `out`, each component's FMU the packaged one of the same
+/// file name in `fmu_dir` (where `package-fmus` writes them).
+pub fn write(system: &System, fmu_dir: &Path, out: &Path) -> anyhow::Result<()> {
+    let files: Vec<(&str, PathBuf)> = system
+        .components
+        .iter()
+        .map(|c| {
+            let file = Path::new(&c.source).file_name().with_context(|| format!("{} names no file", c.source))?;
+            Ok((c.source.as_str(), fmu_dir.join(file)))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let fmus: Vec<(&str, &Path)> = files.iter().map(|(source, path)| (*source, path.as_path())).collect();
+    ssp::write(system, &fmus, out)
 }
 
 /// An estimate against the truth at the same time stamps.

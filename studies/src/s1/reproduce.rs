@@ -627,7 +627,7 @@ fn run_system(
     let noise_std = truth::s1::measure(truth, settings.noise_fraction, settings.seed).noise_std;
     let system = super::system::system(case, settings, noise_std, DEFAULT_FILTER, start_values, fmu)?;
     let path = dir.join("s1_system.ssp");
-    super::system::write(&system, fmu_dir, &path)?;
+    crate::system::write(&system, fmu_dir, &path)?;
     let unpack = dir.join(".s1_system_fmus");
     let in_process = log_path(&dir.join(case.to_string().replace('/', "_")), DEFAULT_FILTER);
     let compared = crate::system::run_and_compare(&path, &unpack, &["F"], &in_process)?;

@@ -5,21 +5,19 @@
 //! stamps, beside the in-process co-simulation of the same case (the estimator FMU fed
 //! the truth simulator's measurements, `fmu_run.rs`).
 
-use std::path::Path;
-
-use anyhow::{bail, Context};
+use anyhow::bail;
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
-use cosim::ssp::{self, Experiment, System};
+use cosim::ssp::{Experiment, System};
 use estimator::FilterKind;
-use start_values::ssv::{Parameter, ParameterSet, ValueKind};
+use start_values::ssv::ValueKind;
 use start_values::StartValues;
 use truth::s1::{chain_parameters, Case, LoadKind, Settings};
 
 use super::Tuning;
-use crate::system::{plant_to_estimator, ESTIMATOR, PLANT};
+use crate::system::{plant_to_estimator, Bindings, ESTIMATOR, PLANT};
 
-const PLANT_FMU: &str = "resources/kalfmu_s1_chain.fmu";
-const ESTIMATOR_FMU: &str = "resources/kalfmu_s1_load.fmu";
+const PLANT_FMU: &str = "kalfmu_s1_chain";
+const ESTIMATOR_FMU: &str = "kalfmu_s1_load";
 
 /// The system of `case` at `settings` with `kind` in the estimator: the plant given the
 /// case's chain, load and seed and the accelerometer noise `noise_std` (m/s²), the
@@ -35,12 +33,9 @@ pub fn system(
     if case.unseen.is_some() {
         bail!("the S1 plant FMU has the paper's loads and the band to 20 Hz; {case} is not one it builds");
     }
-    let mut parameters = ParameterSet::new("s1_system");
-    let mut put = |component: &str, name: &str, value: f64, kind: ValueKind| {
-        let name = format!("{component}.{name}");
-        parameters.parameters.retain(|p| p.name != name);
-        parameters.parameters.push(Parameter { name, value, kind, unit: None, description: None });
-    };
+    let mut parameters = Bindings::new("s1_system");
+    let mut put =
+        |component: &str, name: &str, value: f64, kind: ValueKind| parameters.put(component, name, value, kind);
     let dt = settings.dt();
     let load_source = match case.load {
         LoadKind::Random => 2.0,
@@ -64,21 +59,11 @@ pub fn system(
         put(ESTIMATOR, name, f64::from(value), ValueKind::Integer);
     }
     put(ESTIMATOR, "filter", f64::from(filter_enumeration(kind)), ValueKind::Integer);
-    for (name, value) in start_values.iter() {
-        let kind =
-            estimator.value_kind(name).with_context(|| format!("start value {name}: no parameter of the FMU"))?;
-        put(ESTIMATOR, name, value, kind);
-    }
+    parameters.start_values(start_values, estimator)?;
     let measured = ["z1_ddot", "z2_ddot"];
     let experiment = Experiment { start: 0.0, stop: settings.samples() as f64 * dt, step: dt };
+    let parameters = parameters.checked(estimator)?;
     Ok(plant_to_estimator("s1_system", (PLANT_FMU, ESTIMATOR_FMU), &measured, parameters, experiment))
-}
-
-/// Writes `system` as an `.ssp` at `out`, with the packaged FMUs of `fmu_dir`.
-pub fn write(system: &System, fmu_dir: &Path, out: &Path) -> anyhow::Result<()> {
-    let plant = fmu_dir.join("kalfmu_s1_chain.fmu");
-    let estimator = fmu_dir.join("kalfmu_s1_load.fmu");
-    ssp::write(system, &[(PLANT_FMU, &plant), (ESTIMATOR_FMU, &estimator)], out)
 }
 
 /// Command-line arguments of `kalfmu s1-system`.
@@ -120,7 +105,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (_, measured) = truth::s1::simulate(&args.case, &settings);
     let estimator = ImportedFmu::load_packaged(&args.fmu_dir, "kalfmu_s1_load")?;
     let system = system(&args.case, &settings, measured.noise_std, args.filter, &StartValues::none(), &estimator)?;
-    write(&system, &args.fmu_dir, &args.out)?;
+    crate::system::write(&system, &args.fmu_dir, &args.out)?;
     println!("{}", args.out.display());
     if args.run {
         let unpack = args.out.with_extension("fmus");

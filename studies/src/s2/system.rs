@@ -3,23 +3,23 @@
 //! FMU (`kalfmu_s2_wheel_rail`: the user's catalogue car, the weighed wheel load and the
 //! study's tuning) in an SSP archive.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
-use cosim::ssp::{self, Experiment, System};
+use cosim::ssp::{Experiment, System};
 use estimator::FilterKind;
-use start_values::ssv::{Parameter, ParameterSet, ValueKind};
+use start_values::ssv::ValueKind;
 use truth::s2::cases::{as_built, measure, simulate, Case, Scenario, Settings};
 use truth::s2::irregularity::TrackSpectrum;
 use truth::s2::parameters::Vehicle;
 
 use super::fmu_run;
 use super::study::Tuning;
-use crate::system::{plant_to_estimator, ESTIMATOR, PLANT};
+use crate::system::{plant_to_estimator, Bindings, ESTIMATOR, PLANT};
 
-const PLANT_FMU: &str = "resources/kalfmu_s2_track.fmu";
-const ESTIMATOR_FMU: &str = "resources/kalfmu_s2_wheel_rail.fmu";
+const PLANT_FMU: &str = "kalfmu_s2_track";
+const ESTIMATOR_FMU: &str = "kalfmu_s2_wheel_rail";
 
 /// The seven accelerations, connected by name.
 const MEASURED: [&str; 7] = ["z_c_ddot", "z_t1_ddot", "z_t2_ddot", "z_w1_ddot", "z_w2_ddot", "z_w3_ddot", "z_w4_ddot"];
@@ -38,16 +38,9 @@ pub fn system(
     kind: FilterKind,
     estimator: &ImportedFmu,
 ) -> anyhow::Result<System> {
-    let mut parameters = ParameterSet::new("s2_system");
-    let mut put = |component: &str, name: &str, value: f64, kind: ValueKind| {
-        parameters.parameters.push(Parameter {
-            name: format!("{component}.{name}"),
-            value,
-            kind,
-            unit: None,
-            description: None,
-        });
-    };
+    let mut parameters = Bindings::new("s2_system");
+    let mut put =
+        |component: &str, name: &str, value: f64, kind: ValueKind| parameters.put(component, name, value, kind);
     let track = match scenario.case {
         Case::Random => 1.0,
         Case::Corrugation => 2.0,
@@ -77,22 +70,10 @@ pub fn system(
         put(ESTIMATOR, name, f64::from(value), ValueKind::Integer);
     }
     put(ESTIMATOR, "filter", f64::from(filter_enumeration(kind)), ValueKind::Integer);
-    // Every name set must be the estimator's: a renamed parameter fails here, not in a run.
-    for p in &parameters.parameters {
-        if let Some(name) = p.name.strip_prefix("estimator.") {
-            estimator.value_kind(name).with_context(|| format!("{name} is no parameter of the estimator FMU"))?;
-        }
-    }
     let dt = 1.0 / settings.rate;
     let experiment = Experiment { start: 0.0, stop: (settings.duration * settings.rate).round() * dt, step: dt };
+    let parameters = parameters.checked(estimator)?;
     Ok(plant_to_estimator("s2_system", (PLANT_FMU, ESTIMATOR_FMU), &MEASURED, parameters, experiment))
-}
-
-/// Writes `system` as an `.ssp` at `out`, with the packaged FMUs of `fmu_dir`.
-pub fn write(system: &System, fmu_dir: &Path, out: &Path) -> anyhow::Result<()> {
-    let plant = fmu_dir.join("kalfmu_s2_track.fmu");
-    let estimator = fmu_dir.join("kalfmu_s2_wheel_rail.fmu");
-    ssp::write(system, &[(PLANT_FMU, &plant), (ESTIMATOR_FMU, &estimator)], out)
 }
 
 /// Command-line arguments of `kalfmu s2-system`.
@@ -147,7 +128,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let noise_std = measure(&truth, settings.noise_fraction, settings.seed).noise_std;
     let estimator = ImportedFmu::load_packaged(&args.fmu_dir, "kalfmu_s2_wheel_rail")?;
     let system = system(args.case, &settings, noise_std, args.filter, &estimator)?;
-    write(&system, &args.fmu_dir, &args.out)?;
+    crate::system::write(&system, &args.fmu_dir, &args.out)?;
     println!("{}", args.out.display());
     if args.run {
         let unpack = args.out.with_extension("fmus");

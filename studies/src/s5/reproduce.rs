@@ -560,7 +560,7 @@ fn run_system(given: &Given<'_>, fmu_dir: &Path) -> anyhow::Result<(PathBuf, cra
     let kind = FilterKind::SvdCkf;
     let system = super::system::system(SYSTEM_MANOEUVRE, given.settings, kind, given.start_values, given.fmu)?;
     let path = given.dir.join("s5_system.ssp");
-    super::system::write(&system, fmu_dir, &path)?;
+    crate::system::write(&system, fmu_dir, &path)?;
     let unpack = given.dir.join(".s5_system_fmus");
     let case = cases(true).into_iter().find(|c| c.truth == "6dof" && c.manoeuvre == SYSTEM_MANOEUVRE);
     let in_process = log_path(&given.dir.join(case.context("the system's case is one of the cases")?.name), kind);

@@ -4,14 +4,13 @@
 //! the twelve measurements and the three deflections connected by name, and scored: each
 //! estimated coefficient against the plant's at the same time stamps.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::Context;
 use cosim::fmu_driver::{filter_enumeration, ImportedFmu};
-use cosim::ssp::{self, Experiment, System};
+use cosim::ssp::{Experiment, System};
 use estimator::models::Missile6Dof;
 use estimator::FilterKind;
-use start_values::ssv::{Parameter, ParameterSet, ValueKind};
+use start_values::ssv::ValueKind;
 use start_values::StartValues;
 use truth::s5::flight::Settings;
 use truth::s5::manoeuvre::Manoeuvre;
@@ -19,10 +18,9 @@ use truth::s5::parameters::{AFTER, BEFORE, NAMES, SENSOR_STD};
 
 use super::fmu_run;
 use super::study::Tuning;
-use crate::system::{plant_to_estimator, ESTIMATOR, PLANT};
+use crate::system::{plant_to_estimator, Bindings, ESTIMATOR, PLANT};
 
-const PLANT_FMU: &str = "resources/kalfmu_s5_flight.fmu";
-const ESTIMATOR_FMU: &str = "resources/kalfmu_s5_missile.fmu";
+const PLANT_FMU: &str = "kalfmu_s5_flight";
 
 /// The deflections, connected by name beside the measurements.
 const DEFLECTIONS: [&str; 3] = ["delta_x", "delta_y", "delta_z"];
@@ -48,12 +46,9 @@ pub fn system(
     estimator: &ImportedFmu,
 ) -> anyhow::Result<System> {
     let flight = Manoeuvre::named(manoeuvre).map_err(anyhow::Error::msg)?;
-    let mut parameters = ParameterSet::new("s5_system");
-    let mut put = |component: &str, name: &str, value: f64, kind: ValueKind| {
-        let name = format!("{component}.{name}");
-        parameters.parameters.retain(|p| p.name != name);
-        parameters.parameters.push(Parameter { name, value, kind, unit: None, description: None });
-    };
+    let mut parameters = Bindings::new("s5_system");
+    let mut put =
+        |component: &str, name: &str, value: f64, kind: ValueKind| parameters.put(component, name, value, kind);
     put(PLANT, "manoeuvre", manoeuvre_item(manoeuvre)?, ValueKind::Integer);
     put(PLANT, "change_at", flight.change_at, ValueKind::Real);
     for ((name, before), after) in NAMES.iter().zip(BEFORE).zip(AFTER) {
@@ -73,28 +68,12 @@ pub fn system(
         put(ESTIMATOR, name, f64::from(value), ValueKind::Integer);
     }
     put(ESTIMATOR, "filter", f64::from(filter_enumeration(kind)), ValueKind::Integer);
-    for (name, value) in start_values.iter() {
-        let kind =
-            estimator.value_kind(name).with_context(|| format!("start value {name}: no parameter of the FMU"))?;
-        put(ESTIMATOR, name, value, kind);
-    }
-    // Every name set must be the estimator's: a renamed parameter fails here, not in a run.
-    for p in &parameters.parameters {
-        if let Some(name) = p.name.strip_prefix("estimator.") {
-            estimator.value_kind(name).with_context(|| format!("{name} is no parameter of the estimator FMU"))?;
-        }
-    }
+    parameters.start_values(start_values, estimator)?;
     let measured: Vec<&str> = Missile6Dof::MEASUREMENT_NAMES.iter().copied().chain(DEFLECTIONS).collect();
     let dt = settings.sample_time;
     let experiment = Experiment { start: 0.0, stop: (flight.duration / dt).round() * dt, step: dt };
-    Ok(plant_to_estimator("s5_system", (PLANT_FMU, ESTIMATOR_FMU), &measured, parameters, experiment))
-}
-
-/// Writes `system` as an `.ssp` at `out`, with the packaged FMUs of `fmu_dir`.
-pub fn write(system: &System, fmu_dir: &Path, out: &Path) -> anyhow::Result<()> {
-    let plant = fmu_dir.join("kalfmu_s5_flight.fmu");
-    let estimator = fmu_dir.join("kalfmu_s5_missile.fmu");
-    ssp::write(system, &[(PLANT_FMU, &plant), (ESTIMATOR_FMU, &estimator)], out)
+    let parameters = parameters.checked(estimator)?;
+    Ok(plant_to_estimator("s5_system", (PLANT_FMU, fmu_run::IDENTIFIER), &measured, parameters, experiment))
 }
 
 /// Command-line arguments of `kalfmu s5-system`.
@@ -132,7 +111,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let settings = Settings { seed: args.seed, noise_scale: args.noise_scale, ..Settings::default() };
     let estimator = ImportedFmu::load_packaged(&args.fmu_dir, fmu_run::IDENTIFIER)?;
     let system = system(&args.manoeuvre, &settings, args.filter, &StartValues::none(), &estimator)?;
-    write(&system, &args.fmu_dir, &args.out)?;
+    crate::system::write(&system, &args.fmu_dir, &args.out)?;
     println!("{}", args.out.display());
     if args.run {
         let unpack = args.out.with_extension("fmus");

@@ -27,7 +27,12 @@ impl Flight {
     /// The coefficients in force over the sample interval `[k·T, (k+1)·T)`: taken at its
     /// middle, so that a change on the grid is never missed by a rounding of `k·T`.
     pub fn coefficients_over(&self, k: usize, sample_time: f64) -> &[f64; 10] {
-        &self.coefficients[usize::from((k as f64 + 0.5) * sample_time >= self.manoeuvre.change_at)]
+        self.coefficients_at((k as f64 + 0.5) * sample_time)
+    }
+
+    /// The coefficients in force at `t`: those after the change from `change_at` on.
+    pub fn coefficients_at(&self, t: f64) -> &[f64; 10] {
+        &self.coefficients[usize::from(t >= self.manoeuvre.change_at)]
     }
 
     /// Advances `x` by one RK4 step of `dt` under the coefficients `c` and deflections
@@ -130,8 +135,7 @@ impl FlyingPlant {
 
     /// The coefficients in force over the next step.
     pub fn coefficients(&self) -> &[f64; 10] {
-        let middle = (self.steps as f64 + 0.5) * self.h;
-        &self.flight.coefficients[usize::from(middle >= self.flight.manoeuvre.change_at)]
+        self.flight.coefficients_at((self.steps as f64 + 0.5) * self.h)
     }
 
     /// The deflections `δx, δy, δz` (rad) over the next step.
