@@ -42,7 +42,7 @@ struct ReportArgs {
     /// Write the metrics as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Write a Rerun recording (.rrd, for the Rerun viewer 0.36) here.
+    /// Write a Rerun recording (.rrd, for the Rerun viewer 0.41) here.
     #[arg(long)]
     rrd: Option<PathBuf>,
     /// Pair a truth signal with an estimate signal: truth.X=estimate.Y (repeatable).

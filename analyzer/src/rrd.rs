@@ -1,5 +1,5 @@
 //! The Rerun recording of a comparison (`analyzer report RUN.mcap… --rrd OUT.rrd`; one run
-//! is a comparison of one), for the Rerun viewer 0.36.
+//! is a comparison of one), for the Rerun viewer 0.41.
 //!
 //! Entity paths (`<signal>` is the compared truth signal's name, or `X~Y` when `--pair` pairs
 //! differently named signals; `<run>` is the run's label, its filter); each view's lines are
@@ -70,7 +70,7 @@ pub const MAX_DECADES: f32 = 8.0;
 
 /// How the PSD views show log-log, written here once because the viewer cannot.
 ///
-/// Rerun 0.36 has no logarithmic axes: a `TimeSeriesView` plots against a timeline only
+/// Rerun 0.41 has no logarithmic axes: a `TimeSeriesView` plots against a timeline only
 /// (linear, integer nanoseconds or sequence numbers) and `ScalarAxis` has no log scale.
 /// So each spectrum is a 2D line strip through `(log10 f/Hz, log10 PSD/(unit²/Hz))` in a
 /// `Spatial2DView`, framed, with grid lines at the decades labelled in plain numbers
@@ -97,7 +97,8 @@ const MEASUREMENT_COLUMNS: u32 = 2;
 /// variable is `off`/`0`/`false`. Under that variable the SDK's streams write nothing
 /// and report success; the recording stream here is forced on, but the SDK builds the
 /// blueprint through a stream of its own that still obeys the variable (and then panics
-/// in 0.36.3), so this refuses with a clear error instead.
+/// in 0.41.0: `Blueprint::send` expects the messages that stream did not write), so this
+/// refuses with a clear error instead.
 pub fn write_rrd(comparison: &Comparison, runs: &[Run], path: &Path) -> Result<(), LogError> {
     let fail = |what: String| LogError::Rrd { file: path.to_path_buf(), what };
     if !rerun::decide_logging_enabled(true) {
@@ -115,6 +116,9 @@ pub fn write_rrd(comparison: &Comparison, runs: &[Run], path: &Path) -> Result<(
         .recording_id(recording_id.clone())
         // Explicitly on, so that RERUN=off cannot turn this stream into a no-op.
         .enabled(true)
+        // The SDK would otherwise add a RecordingInfo stamped with the wall clock, and the
+        // same logs would no longer give the same file; the recording's name is logged below.
+        .send_properties(false)
         .save(path)
         .map_err(|e| fail(e.to_string()))?;
     send_blueprint(&rec, blueprint(comparison, runs), whole_run(comparison, runs)).map_err(fail)?;
@@ -131,10 +135,10 @@ pub fn write_rrd(comparison: &Comparison, runs: &[Run], path: &Path) -> Result<(
         recording.signal(&pairs, &comparison.labels)?;
     }
     if let Some(channel) = runs.first().and_then(|r| r.channel(MEASUREMENTS).ok()) {
-        for signal in &channel.signals {
+        for (signal, color) in channel.signals.iter().zip(measurement_colors(&channel.signals)) {
             let entity = entity(&["measurements", &signal.spec.name]);
             let label = with_unit(&signal.spec.name, &signal.spec.unit);
-            recording.style(&entity, &[Line { name: label, color: None, width: 1.0, shown: true }])?;
+            recording.style(&entity, &[Line::new(label, color, 1.0, true)])?;
             recording.series(&entity, &channel.time, &[&signal.values])?;
         }
     }
@@ -183,8 +187,7 @@ fn envelope_note(n: usize) -> String {
 #[derive(Clone)]
 struct Line {
     name: String,
-    /// `None`: the viewer's colour for the entity.
-    color: Option<Color>,
+    color: Color,
     width: f32,
     /// Drawn, or only listed in the legend (to switch on there).
     shown: bool,
@@ -192,7 +195,7 @@ struct Line {
 
 impl Line {
     fn new(name: String, color: Color, width: f32, shown: bool) -> Self {
-        Self { name, color: Some(color), width, shown }
+        Self { name, color, width, shown }
     }
 }
 
@@ -201,21 +204,43 @@ fn truth_color() -> Color {
     Color::from_rgb(225, 225, 225)
 }
 
-/// Run `i`'s colour (matplotlib's tab10 without its grey).
+/// Matplotlib's tab10 without its grey.
+const PALETTE: [(u8, u8, u8); 9] = [
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (23, 190, 207),
+    (227, 119, 194),
+    (188, 189, 34),
+    (140, 86, 75),
+    (31, 119, 180),
+];
+
+/// Run `i`'s colour, from the start of the palette.
 fn run_color(i: usize) -> Color {
-    const PALETTE: [(u8, u8, u8); 9] = [
-        (255, 127, 14),
-        (44, 160, 44),
-        (214, 39, 40),
-        (148, 103, 189),
-        (23, 190, 207),
-        (227, 119, 194),
-        (188, 189, 34),
-        (140, 86, 75),
-        (31, 119, 180),
-    ];
     let (r, g, b) = PALETTE[i % PALETTE.len()];
     Color::from_rgb(r, g, b)
+}
+
+/// The measurements' colours, one per signal: within a view (the signals of one unit) each
+/// line its own, from the end of the palette, so that they are not read as runs. The
+/// viewer's own colour of an entity comes from a hash of its path and can give two lines of
+/// one view the same hue.
+fn measurement_colors(signals: &[Signal]) -> Vec<Color> {
+    let groups = unit_groups(signals);
+    signals
+        .iter()
+        .map(|signal| {
+            let k = groups
+                .iter()
+                .find(|(unit, _)| *unit == signal.spec.unit)
+                .and_then(|(_, names)| names.iter().position(|name| *name == signal.spec.name))
+                .unwrap_or(0);
+            let (r, g, b) = PALETTE[PALETTE.len() - 1 - k % PALETTE.len()];
+            Color::from_rgb(r, g, b)
+        })
+        .collect()
 }
 
 fn band_color(i: usize) -> Color {
@@ -266,13 +291,11 @@ impl Recording<'_> {
     /// Names, colours and widens the lines of the series at `entity` (one per scalar of a row),
     /// each shown or only in the legend.
     fn style(&mut self, entity: &EntityPath, lines: &[Line]) -> Result<(), LogError> {
-        let mut style = SeriesLines::new()
+        let style = SeriesLines::new()
             .with_names(lines.iter().map(|l| l.name.clone()))
+            .with_colors(lines.iter().map(|l| l.color))
             .with_widths(lines.iter().map(|l| l.width))
             .with_visible_series(lines.iter().map(|l| l.shown));
-        if let Some(colors) = lines.iter().map(|l| l.color).collect::<Option<Vec<Color>>>() {
-            style = style.with_colors(colors);
-        }
         self.static_row(entity.clone(), &style)
     }
 
@@ -629,7 +652,7 @@ fn markdown(comparison: &Comparison) -> String {
         md,
         "Written by analyzer {} with the Rerun SDK {}.",
         env!("CARGO_PKG_VERSION"),
-        rerun::build_info().version
+        rerun::external::re_build_info::CrateVersion::LOCAL
     );
     md
 }
@@ -706,17 +729,22 @@ fn whole_run(comparison: &Comparison, runs: &[Run]) -> (i64, i64) {
     }
 }
 
-/// Sends `blueprint` to `rec` with every view's time axis on `span` (ns), so that the
-/// views open on the whole run: the viewer's default is the 60 s around the time cursor,
-/// half of it empty at the start of a long run. The SDK's Rust blueprint API (0.36) has
-/// no setter for a view's time axis, so the blueprint the SDK builds is captured, and the
-/// `TimeAxis` property (`view/<id>/TimeAxis`, as the Python API logs it) is added to its
-/// store before it is sent.
+/// Sends `blueprint` to `rec` with two properties on every view:
+/// - the time axis on `span` (ns), so that the views open on the whole run: the viewer's
+///   default is the 60 s around the time cursor, half of it empty at the start of a long run;
+/// - the tooltip listing every visible series at the hovered time, so that hovering a plot
+///   compares the truth and each filter at one instant (the default shows the nearest point
+///   of one series).
+///
+/// The SDK's Rust blueprint API (0.41) has no setter for a view's properties, so the
+/// blueprint the SDK builds is captured, and the properties (`view/<id>/TimeAxis`,
+/// `view/<id>/PlotInteraction`, as the Python API logs them) are added to its store before it
+/// is sent. Views that plot no time series ignore them.
 fn send_blueprint(rec: &RecordingStream, blueprint: Blueprint, span: (i64, i64)) -> Result<(), String> {
     use rerun::blueprint::BlueprintActivation;
-    use rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis;
-    use rerun::external::re_sdk_types::blueprint::components::TimeRange;
-    use rerun::external::re_sdk_types::datatypes::{TimeInt, TimeRange as Range, TimeRangeBoundary};
+    use rerun::external::re_sdk_types::blueprint::archetypes::{PlotInteraction, TimeAxis};
+    use rerun::external::re_sdk_types::blueprint::components::{TimeRange, TooltipMode};
+    use rerun::external::re_sdk_types::encodings::{TimeInt, TimeRange as Range, TimeRangeBoundary};
     use rerun::log::LogMsg;
 
     let (capture, captured) =
@@ -764,6 +792,9 @@ fn send_blueprint(rec: &RecordingStream, blueprint: Blueprint, span: (i64, i64))
     for view in &views {
         properties
             .log(format!("{view}/TimeAxis"), &TimeAxis::new().with_view_range(range))
+            .map_err(|e| e.to_string())?;
+        properties
+            .log(format!("{view}/PlotInteraction"), &PlotInteraction::new().with_tooltip_mode(TooltipMode::All))
             .map_err(|e| e.to_string())?;
     }
     properties.flush_blocking().map_err(|e| e.to_string())?;

@@ -114,6 +114,12 @@ impl Decoded {
             .collect()
     }
 
+    /// The colours given to the lines of the series at `path`.
+    fn line_colors(&self, path: &str) -> Vec<u32> {
+        let descriptor = SeriesLines::descriptor_colors();
+        self.chunks(path).flat_map(|c| c.iter_slices::<u32>(descriptor.component).flatten().copied()).collect()
+    }
+
     /// The blueprint's views: (class, origin).
     fn views(&self) -> Vec<(String, String)> {
         let mut views = Vec::new();
@@ -295,7 +301,7 @@ fn the_recording_holds_the_spectra_the_tables_and_a_blueprint() {
 fn every_view_opens_on_the_whole_run() {
     use rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis;
     use rerun::external::re_sdk_types::blueprint::components::TimeRange;
-    use rerun::external::re_sdk_types::datatypes::{TimeInt, TimeRangeBoundary};
+    use rerun::external::re_sdk_types::encodings::{TimeInt, TimeRangeBoundary};
     let n = 2000;
     let (_, _, rrd) = written("range", n);
     let last = ((n - 1) as f64 * 0.01 * 1e9).round() as i64;
@@ -318,6 +324,35 @@ fn every_view_opens_on_the_whole_run() {
         assert_eq!(ranges.len(), 1, "{axis}: one view range");
         assert_eq!(ranges[0].0.start, TimeRangeBoundary::Absolute(TimeInt(0)), "{axis}");
         assert_eq!(ranges[0].0.end, TimeRangeBoundary::Absolute(TimeInt(last)), "{axis}");
+    }
+    assert_eq!(time_series, 4, "the signal, its error, its running RMSE and the measurements");
+}
+
+/// Hovering a plot lists every visible series at that time (truth and each filter side by
+/// side), not only the nearest point of one: a `PlotInteraction` property of every time
+/// series view.
+#[test]
+fn hovering_a_plot_lists_every_series_at_that_time() {
+    use rerun::external::re_sdk_types::blueprint::archetypes::PlotInteraction;
+    use rerun::external::re_sdk_types::blueprint::components::TooltipMode;
+    let (_, _, rrd) = written("tooltip", 200);
+    let mut time_series = 0;
+    for chunk in &rrd.blueprint {
+        if strings(chunk, ViewBlueprint::descriptor_class_identifier()) != ["TimeSeries"] {
+            continue;
+        }
+        time_series += 1;
+        let interaction = chunk.entity_path().join(&EntityPath::from_single_string("PlotInteraction"));
+        let modes: Vec<TooltipMode> = rrd
+            .blueprint
+            .iter()
+            .filter(|c| *c.entity_path() == interaction)
+            .flat_map(|c| {
+                let rows = c.iter_component::<TooltipMode>(PlotInteraction::descriptor_tooltip_mode().component);
+                rows.flat_map(|row| row.to_vec()).collect::<Vec<_>>()
+            })
+            .collect();
+        assert_eq!(modes, [TooltipMode::All], "{interaction}");
     }
     assert_eq!(time_series, 4, "the signal, its error, its running RMSE and the measurements");
 }
@@ -360,6 +395,9 @@ fn measurements_in_several_units_get_a_view_per_unit() {
     };
     assert_eq!(measurements, [view("measurements [m]", &["h"]), view("measurements [rad/s]", &["p", "q"])]);
     assert_eq!(rrd.series("measurements/h").1[1], [10_000.01], "each signal is still logged on its own");
+    let (p, q) = (rrd.line_colors("measurements/p"), rrd.line_colors("measurements/q"));
+    assert_eq!((p.len(), q.len()), (1, 1), "every measurement has its colour");
+    assert_ne!(p, q, "two lines of one view are told apart by colour");
 }
 
 #[test]

@@ -601,7 +601,7 @@ pub fn report(
          the measurements up to now; logged on /smoothed): correlation, RMSE after convergence, 2σ coverage",
         crate::smoothed::SMOOTHING_LAG
     );
-    println!("comparison recordings, every filter of a case, or the default one standing for those within its σ (open with the Rerun viewer 0.36 or newer):");
+    println!("comparison recordings, every filter of a case, or the default one standing for those within its σ (open with the Rerun viewer 0.41 or newer):");
     for recording in &recordings {
         println!("  {}", recording.display());
     }

@@ -898,7 +898,7 @@ pub fn report(
          earlier given the measurements up to now; logged on /smoothed), from {SETTLE} s to one lag before the end: \
          correlation, RMSE over the true force's dynamic σ, share of errors inside their own ±2σ"
     );
-    println!("comparison recordings, every filter of a case, or the default one standing for those within its σ (open with the Rerun viewer 0.36 or newer):");
+    println!("comparison recordings, every filter of a case, or the default one standing for those within its σ (open with the Rerun viewer 0.41 or newer):");
     for recording in &recordings {
         println!("  {}", recording.display());
     }

@@ -546,7 +546,7 @@ pub fn report(
     write_table(&dir, &table)?;
     print!("{}", summary_table(&table.cases));
     print!("{}", wheel_table(&table.cases));
-    println!("comparison recordings, the four runs of a case in one (open with the Rerun viewer 0.36 or newer):");
+    println!("comparison recordings, the four runs of a case in one (open with the Rerun viewer 0.41 or newer):");
     for recording in &recordings {
         println!("  {}", recording.display());
     }
