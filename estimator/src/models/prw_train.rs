@@ -136,8 +136,10 @@ impl PrwTrain {
     /// channels `included`: `|K_v,i| / Σⱼ |K_v,j|` with `K = P·Hᵀ·(H·P·Hᵀ + R)⁻¹` from the
     /// covariance `p` (`7 × 7`, or larger with the state first) and the channels' noise
     /// variances `r` over those rows; 0 for a channel not included, and for all when none
-    /// is (or `H·P·Hᵀ + R` is singular). With the four in, equally noisy and their
-    /// offsets learnt, each weighs about ¼.
+    /// is, when `H·P·Hᵀ + R` is singular, and when a telegram would not correct the speed
+    /// at all (the speed uncorrelated with the positions, as in a diagonal prior: shares of
+    /// nothing, which rounding alone would otherwise decide). With the four in, equally
+    /// noisy and their offsets learnt, each weighs about ¼.
     pub fn speed_weights(p: &DMatrix<f64>, r: [f64; 4], included: [bool; 4]) -> [f64; 4] {
         // Row i of H is e_s + e_dᵢ: P·Hᵀ's column i and H·P·Hᵀ's entries from P directly;
         // a channel left out is decoupled (identity in S, zero in P·Hᵀ).
@@ -156,7 +158,10 @@ impl PrwTrain {
         let Some(inverse) = innovation.try_inverse() else { return weights };
         let gain = speed_cross * inverse;
         let total: f64 = (0..4).filter(|&i| included[i]).map(|i| gain[i].abs()).sum();
-        if total > 0.0 && total.is_finite() {
+        // A gain's scale: a speed correlated fully with channel i has |K_v,i| up to
+        // √(P_vv / S_ii); below a 10⁻⁹ of it the correlation is rounding, not information.
+        let scale: f64 = (0..4).filter(|&i| included[i]).map(|i| (p[(v, v)] / innovation[(i, i)]).sqrt()).sum();
+        if total > 1e-9 * scale && total.is_finite() {
             for i in (0..4).filter(|&i| included[i]) {
                 weights[i] = gain[i].abs() / total;
             }
@@ -380,6 +385,13 @@ mod tests {
             assert!((w[i] - k[(1, i)].abs() / total).abs() < 1e-9, "{w:?}");
         }
         assert_eq!(PrwTrain::speed_weights(&p, r, [false; 4]), [0.0; 4]);
+        // A diagonal prior: a telegram corrects the speed by nothing, shared by nobody,
+        // also when rounding leaves a correlation of 10⁻¹⁵ (AVX2's fused roundings do).
+        let mut p = DMatrix::<f64>::from_diagonal(&nalgebra::DVector::from_row_slice(&diagonal));
+        assert_eq!(PrwTrain::speed_weights(&p, r, [true; 4]), [0.0; 4]);
+        p[(0, 1)] = 1e-15 * (p[(0, 0)] * p[(1, 1)]).sqrt();
+        p[(1, 0)] = p[(0, 1)];
+        assert_eq!(PrwTrain::speed_weights(&p, r, [true; 4]), [0.0; 4]);
     }
 
     #[test]

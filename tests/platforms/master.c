@@ -1,8 +1,8 @@
 /* A small FMI 2.0 Co-Simulation master, one source for Linux and Windows: it loads an
  * FMU's binary (dlopen or LoadLibrary), runs the script given and writes what every call
  * returned, numbers as the hexadecimal bits of their IEEE doubles. The same script run
- * on the linux64 and the win64 binary of an FMU must write the same file, byte for byte
- * (tests/test_win64.py). Nothing here is the project's code: it is the importer's side.
+ * on the linux64 binary of an FMU and on its win64 (or linux-aarch64) binary must write
+ * the same file, byte for byte (tests/test_platforms.py). Nothing here is the project's code: it is the importer's side.
  *
  * Usage: master BINARY GUID RESOURCE_URI SCRIPT OUT
  *

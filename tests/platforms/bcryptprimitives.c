@@ -1,4 +1,4 @@
-/* A stand-in for Windows' bcryptprimitives.dll, for the win64 tests under wine only.
+/* A stand-in for Windows' bcryptprimitives.dll, for testing the win64 binaries under wine.
  *
  * Why: Rust's standard library for Windows imports ProcessPrng from bcryptprimitives.dll
  * (present since Windows 10) for its random hash-map keys. Wine 8, Debian's, has no such
