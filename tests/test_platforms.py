@@ -19,8 +19,9 @@ on its binary. What is specified here:
 - the library built for linux-aarch64 (not packed: FMI 2.0 names no platform folder for
   it) gives the same, bit for bit, as the linux64 library on its portable kernels
   (`KALFMU_PORTABLE=1`), the loops an aarch64 CPU runs; against the x86-64 default, whose
-  AVX2 kernels fuse a multiply and an add into one rounding, its outputs differ in the
-  last bits only (`test_aarch64_and_the_avx2_kernels_differ_by_rounding_only`).
+  AVX2 kernels fuse a multiply and an add into one rounding, its outputs differ by
+  rounding only, but for the SVD-CKF's
+  (`test_aarch64_and_the_avx2_kernels_differ_by_rounding_only` says why).
 
 The win64 binaries run under wine. Wine 8 lacks `ProcessPrng`, which Rust's standard
 library imports on Windows: the stub `platforms/bcryptprimitives.c` (why, beside it) is
@@ -121,7 +122,8 @@ def aarch64(tmp_path_factory) -> Platform:
     qemu-user; compared with the linux64 library on its portable kernels."""
     missing = aarch64_missing()
     if missing:
-        pytest.skip(f"no aarch64 tool chain here ({', '.join(missing)}): bash scripts/setup --aarch64")
+        reason = f"no aarch64 tool chain here ({', '.join(missing)})"
+        pytest.skip(f"{reason}: bash scripts/check-aarch64 installs it and runs these tests")
     out = tmp_path_factory.mktemp("aarch64")
     build = ["cargo", "build", "--release", "-p", "fmu", "--lib", "--target", AARCH64]
     subprocess.run(build, cwd=ROOT, check=True)

@@ -159,7 +159,7 @@ impl PrwTrain {
         let gain = speed_cross * inverse;
         let total: f64 = (0..4).filter(|&i| included[i]).map(|i| gain[i].abs()).sum();
         // A gain's scale: a speed correlated fully with channel i has |K_v,i| up to
-        // √(P_vv / S_ii); below a 10⁻⁹ of it the correlation is rounding, not information.
+        // √(P_vv / S_ii); below 10⁻⁹ of it the correlation is rounding, not information.
         let scale: f64 = (0..4).filter(|&i| included[i]).map(|i| (p[(v, v)] / innovation[(i, i)]).sqrt()).sum();
         if total > 1e-9 * scale && total.is_finite() {
             for i in (0..4).filter(|&i| included[i]) {
