@@ -20,8 +20,7 @@ on its binary. What is specified here:
   it) gives the same, bit for bit, as the linux64 library on its portable kernels
   (`KALFMU_PORTABLE=1`), the loops an aarch64 CPU runs; against the x86-64 default, whose
   AVX2 kernels fuse a multiply and an add into one rounding, its outputs differ by
-  rounding only, but for the SVD-CKF's
-  (`test_aarch64_and_the_avx2_kernels_differ_by_rounding_only` says why).
+  rounding only (`test_aarch64_and_the_avx2_kernels_differ_by_rounding_only`).
 
 The win64 binaries run under wine. Wine 8 lacks `ProcessPrng`, which Rust's standard
 library imports on Windows: the stub `platforms/bcryptprimitives.c` (why, beside it) is
@@ -285,12 +284,11 @@ def test_a_discarded_step_is_the_same_bit_for_bit(s5_fmu, kalfmu_bin, platform, 
 
 
 def test_aarch64_and_the_avx2_kernels_differ_by_rounding_only(case, aarch64, fmu_dir, linux_master, tmp_path):
-    """The x86-64 default (AVX2 with FMA) against aarch64: every output of the CKF, the
-    SRCKF, the UKF and the EKF within 10⁻⁶ of its largest size over the run (measured: 10⁻⁸
-    and below). Not the SVD-CKF's: its cubature points are the columns of U·√Σ, and where
-    singular values are equal, or nearly (a diagonal prior), U is any basis of their space,
-    which the roundings choose; other points give another, equally valid, estimate
-    (measured: S2's forces 3 % apart, S3's 10⁻⁴; docs/fmu-interface.md)."""
+    """The x86-64 default (AVX2 with FMA) against aarch64: every output of every filter
+    within 10⁻⁶ of its largest size over the run. The SVD-CKF's too: its points come from
+    the symmetric root U·√Σ·Uᵀ, the same for every basis U of an eigenspace; from U·√Σ,
+    whose basis the roundings chose where eigenvalues are equal or nearly (a diagonal
+    prior), S2's forces were 3 % apart (docs/fmu-interface.md)."""
     md = case.model_description
     fmu = packaged(fmu_dir, md.coSimulation.modelIdentifier)
     default = {k: v for k, v in os.environ.items() if k != "KALFMU_PORTABLE"}
@@ -299,12 +297,10 @@ def test_aarch64_and_the_avx2_kernels_differ_by_rounding_only(case, aarch64, fmu
     instances = zip(kinds.items, linux.split("instantiate ")[1:], other.split("instantiate ")[1:], strict=True)
     compared = 0
     for kind, ours, theirs in instances:  # in the script's order
-        if kind.name == "SVD_CKF":
-            continue
         a, b = outputs_read(ours), outputs_read(theirs)
         assert a.shape == b.shape and a.size > 0
         scale = np.abs(a).max(axis=0)  # each output's largest size over the run
         relative = np.abs(a - b) / np.where(scale > 0, scale, 1.0)
         assert relative.max() <= 1e-6, f"{kind.name}: {relative.max():.1e} of an output's size"
         compared += 1
-    assert compared == len(kinds.items) - 1
+    assert compared == len(kinds.items)

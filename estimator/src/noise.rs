@@ -177,7 +177,7 @@ pub(crate) fn psd_square_root(name: &str, m: &DMatrix<f64>) -> Result<DMatrix<f6
         )));
     }
     let mut root = DMatrix::zeros(n, n);
-    eigen.write_svd_square_root(&mut root);
+    eigen.write_symmetric_square_root(&mut root);
     Ok(root)
 }
 

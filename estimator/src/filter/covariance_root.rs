@@ -1,5 +1,6 @@
 //! How a covariance-form sigma-point filter takes the square root of `P`
-//! before it spreads its points: Cholesky (CKF, UKF) or SVD (SVD-CKF).
+//! before it spreads its points: Cholesky (CKF, UKF) or the symmetric root
+//! from the SVD (SVD-CKF).
 
 use nalgebra::DMatrix;
 
@@ -34,12 +35,14 @@ impl CovarianceRoot for CholeskyRoot {
     }
 }
 
-/// `U·√Σ` from the SVD `P = U·Σ·Vᵀ` (Jacobi on the symmetric `P`, see
+/// `U·√Σ·Uᵀ` from the SVD `P = U·Σ·Vᵀ` (Jacobi on the symmetric `P`, see
 /// [`SymmetricEigen`]: one-sided on a pivoted Cholesky factor while `P` is
 /// positive definite, two-sided on `P` otherwise). Defined for every finite
 /// symmetric `P`: rounding that makes `P` slightly indefinite costs accuracy in
 /// that direction instead of stopping the filter. It depends on `P` alone, so
-/// the filter's state is still its mean and covariance.
+/// the filter's state is still its mean and covariance; and, unlike `U·√Σ`, not
+/// on which basis of an eigenspace the rotations reach, so it is the same on
+/// every CPU to rounding (see [`SymmetricEigen::write_symmetric_square_root`]).
 #[derive(Debug, Clone)]
 pub struct SvdRoot {
     eigen: SymmetricEigen,
@@ -52,7 +55,7 @@ impl CovarianceRoot for SvdRoot {
 
     fn factor(&mut self, p: &DMatrix<f64>, out: &mut DMatrix<f64>) -> Result<(), RootFailed> {
         self.eigen.decompose(p).map_err(|_| RootFailed)?;
-        self.eigen.write_svd_square_root(out);
+        self.eigen.write_symmetric_square_root(out);
         Ok(())
     }
 }

@@ -294,14 +294,40 @@ impl SymmetricEigen {
         }
     }
 
-    /// Writes `U·√Σ` (`Σ = |λ|`, the singular values of the decomposed matrix)
-    /// into `out`: a square root of the matrix when it is positive semi-definite.
-    pub fn write_svd_square_root(&self, out: &mut DMatrix<f64>) {
+    /// Writes `U·√Σ·Uᵀ` (`Σ = |λ|`, the singular values of the decomposed matrix)
+    /// into `out`: for a positive semi-definite matrix, its symmetric square root,
+    /// the one square root that is itself symmetric positive semi-definite.
+    ///
+    /// `U·√Σ` is a square root too, but not one the matrix decides: where
+    /// eigenvalues are equal (a diagonal prior) any basis of their space is a `U`,
+    /// and where they are nearly equal the basis swings with the last bits of the
+    /// matrix; which one the Jacobi rotations reach depends on how the CPU rounds.
+    /// `U·√Σ·Uᵀ` is the same for every such basis and a continuous function of the
+    /// matrix, so points spread from it are the same on every CPU to rounding.
+    ///
+    /// Entry `(i, k)` is `Σⱼ uᵢⱼ·√σⱼ·uₖⱼ`, summed over `j` in the same order for
+    /// every entry and written to both `(i, k)` and `(k, i)`: the result is
+    /// symmetric exactly.
+    pub fn write_symmetric_square_root(&self, out: &mut DMatrix<f64>) {
         let n = self.values.len();
-        for j in 0..n {
-            let scale = self.values[j].abs().sqrt();
-            for i in 0..n {
-                out[(i, j)] = self.vectors[(i, j)] * scale;
+        debug_assert_eq!(out.shape(), (n, n));
+        out.fill(0.0);
+        let vectors = self.vectors.as_slice();
+        let root = out.as_mut_slice();
+        for (j, value) in self.values.iter().enumerate() {
+            let scale = value.abs().sqrt();
+            let u = &vectors[j * n..(j + 1) * n];
+            for k in 0..n {
+                let coefficient = scale * u[k];
+                // Column `k` from its diagonal down: contiguous in both slices.
+                for (r, &ui) in root[k * n + k..(k + 1) * n].iter_mut().zip(&u[k..]) {
+                    *r += ui * coefficient;
+                }
+            }
+        }
+        for k in 0..n {
+            for i in k + 1..n {
+                root[i * n + k] = root[k * n + i];
             }
         }
     }
@@ -355,14 +381,43 @@ mod tests {
     }
 
     #[test]
-    fn svd_square_root_of_a_psd_matrix_reproduces_it() {
+    fn the_square_root_of_a_psd_matrix_is_symmetric_and_reproduces_it() {
         let a = DMatrix::from_fn(4, 2, |i, j| (i + 2 * j) as f64 - 1.5);
         let p = &a * a.transpose(); // rank 2
         let mut e = SymmetricEigen::new(4);
         e.decompose(&p).unwrap();
         let mut r = DMatrix::zeros(4, 4);
-        e.write_svd_square_root(&mut r);
-        assert!((&r * r.transpose() - &p).norm() < 1e-12 * p.norm());
+        e.write_symmetric_square_root(&mut r);
+        assert_eq!(r, r.transpose());
+        assert!((&r * &r - &p).norm() < 1e-12 * p.norm());
+    }
+
+    #[test]
+    fn the_square_root_does_not_depend_on_the_basis_of_a_repeated_eigenvalue() {
+        // Q·diag(4, 4, 4, 1)·Qᵀ: any basis of the first three eigenvectors is a `U`. The
+        // one-sided and the two-sided rotations reach different ones, as two CPUs'
+        // roundings may; the symmetric root is Q·diag(2, 2, 2, 1)·Qᵀ for both.
+        let n = 4;
+        let q = DMatrix::from_fn(n, n, |i, j| (((i * 5 + j * 3) % 7) as f64 - 3.0) + if i == j { 5.0 } else { 0.0 })
+            .qr()
+            .q();
+        let lambda = DVector::from_vec(vec![4.0, 4.0, 4.0, 1.0]);
+        let p = &q * DMatrix::from_diagonal(&lambda) * q.transpose();
+        let p = (&p + p.transpose()) / 2.0;
+        let expected = &q * DMatrix::from_diagonal(&lambda.map(f64::sqrt)) * q.transpose();
+        let mut one_sided = SymmetricEigen::new(n);
+        one_sided.decompose(&p).unwrap();
+        let mut two_sided = SymmetricEigen::new(n);
+        two_sided.two_sided(&p).unwrap();
+        let overlap = (one_sided.vectors().transpose() * two_sided.vectors()).map(f64::abs);
+        let off_permutation = overlap.row_iter().map(|row| 1.0 - row.max()).fold(0.0, f64::max);
+        assert!(off_permutation > 1e-3, "the test needs two bases of the repeated eigenvalue's space");
+        for (path, decomposition) in [("one-sided", &one_sided), ("two-sided", &two_sided)] {
+            let mut r = DMatrix::zeros(n, n);
+            decomposition.write_symmetric_square_root(&mut r);
+            let error = (&r - &expected).norm() / expected.norm();
+            assert!(error < 1e-14, "{path}: root off by {error:e}");
+        }
     }
 
     #[test]
@@ -379,7 +434,7 @@ mod tests {
         let mut e = SymmetricEigen::new(n);
         e.decompose(&p).unwrap();
         let mut r = DMatrix::zeros(n, n);
-        e.write_svd_square_root(&mut r);
+        e.write_symmetric_square_root(&mut r);
         let rebuilt = &r * r.transpose();
         for i in 0..n {
             for j in 0..n {
@@ -463,7 +518,7 @@ mod tests {
         e.decompose(&m).unwrap();
         assert!((e.min_value() + 1.0).abs() < 1e-14 && (e.max_abs_value() - 4.0).abs() < 1e-14);
         let mut r = DMatrix::zeros(2, 2);
-        e.write_svd_square_root(&mut r);
+        e.write_symmetric_square_root(&mut r);
         let expected = &u * DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, 1.0])) * u.transpose();
         assert!((&r * r.transpose() - expected).norm() < 1e-14);
     }
@@ -478,8 +533,8 @@ mod tests {
         let mut e = SymmetricEigen::new(n);
         e.decompose(&p).unwrap();
         let (mut r1, mut r2) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
-        portable.write_svd_square_root(&mut r1);
-        e.write_svd_square_root(&mut r2);
+        portable.write_symmetric_square_root(&mut r1);
+        e.write_symmetric_square_root(&mut r2);
         // The same rotations in the same order: the columns agree up to rounding.
         assert!((&r1 - &r2).norm() < 1e-12 * r2.norm(), "{:e}", (&r1 - &r2).norm() / r2.norm());
     }
