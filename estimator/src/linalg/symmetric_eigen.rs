@@ -57,8 +57,11 @@ pub struct SymmetricEigen {
     schur: Vec<f64>,
     /// The rows the Cholesky factorisation has pivoted on.
     pivoted: Vec<bool>,
-    /// `−X[π(k), j]` for the columns `j < k` of `X`, as column `k` is formed.
+    /// `−X[π(k), j]` for the columns `j < k` of `X`, as column `k` is formed;
+    /// `√σⱼ·uₖⱼ` as column `k` of the symmetric square root is.
     coefficients: Vec<f64>,
+    /// `√σⱼ`, the square roots of the singular values.
+    root_values: Vec<f64>,
     /// `xₚᵀ·x_q` for the pairs of one anti-diagonal `p + q = d`.
     products: Vec<f64>,
     vectors: DMatrix<f64>,
@@ -85,6 +88,7 @@ impl SymmetricEigen {
             schur: vec![0.0; n],
             pivoted: vec![false; n],
             coefficients: vec![0.0; n],
+            root_values: vec![0.0; n],
             products: vec![0.0; n / 2],
             vectors: DMatrix::zeros(n, n),
             values: DVector::zeros(n),
@@ -305,25 +309,31 @@ impl SymmetricEigen {
     /// `U·√Σ·Uᵀ` is the same for every such basis and a continuous function of the
     /// matrix, so points spread from it are the same on every CPU to rounding.
     ///
-    /// Entry `(i, k)` is `Σⱼ uᵢⱼ·√σⱼ·uₖⱼ`, summed over `j` in the same order for
-    /// every entry and written to both `(i, k)` and `(k, i)`: the result is
-    /// symmetric exactly.
-    pub fn write_symmetric_square_root(&self, out: &mut DMatrix<f64>) {
+    /// Column `k` is `Σⱼ (√σⱼ·uₖⱼ)·uⱼ`, formed from its diagonal down in
+    /// registers ([`Lanes::combine`], as the Cholesky factor's columns are); the
+    /// upper triangle is the lower one's mirror, so the result is symmetric exactly.
+    pub fn write_symmetric_square_root(&mut self, out: &mut DMatrix<f64>) {
+        with_avx2!(fn<>(lanes, eigen: &mut SymmetricEigen = self, out: &mut DMatrix<f64> = out) -> () {
+            eigen.symmetric_square_root(lanes, out)
+        })
+    }
+
+    #[inline(always)]
+    fn symmetric_square_root<L: Lanes>(&mut self, lanes: L, out: &mut DMatrix<f64>) {
         let n = self.values.len();
         debug_assert_eq!(out.shape(), (n, n));
+        for (root, value) in self.root_values.iter_mut().zip(self.values.iter()) {
+            *root = value.abs().sqrt();
+        }
         out.fill(0.0);
         let vectors = self.vectors.as_slice();
         let root = out.as_mut_slice();
-        for (j, value) in self.values.iter().enumerate() {
-            let scale = value.abs().sqrt();
-            let u = &vectors[j * n..(j + 1) * n];
-            for k in 0..n {
-                let coefficient = scale * u[k];
-                // Column `k` from its diagonal down: contiguous in both slices.
-                for (r, &ui) in root[k * n + k..(k + 1) * n].iter_mut().zip(&u[k..]) {
-                    *r += ui * coefficient;
-                }
+        for k in 0..n {
+            for ((c, s), j) in self.coefficients.iter_mut().zip(&self.root_values).zip(0..n) {
+                *c = s * vectors[j * n + k];
             }
+            // Rows k.. of every eigenvector: `vectors[k..]` with leading dimension n.
+            lanes.combine(&mut root[k * n + k..(k + 1) * n], &self.coefficients, &vectors[k..], n);
         }
         for k in 0..n {
             for i in k + 1..n {
@@ -412,7 +422,7 @@ mod tests {
         let overlap = (one_sided.vectors().transpose() * two_sided.vectors()).map(f64::abs);
         let off_permutation = overlap.row_iter().map(|row| 1.0 - row.max()).fold(0.0, f64::max);
         assert!(off_permutation > 1e-3, "the test needs two bases of the repeated eigenvalue's space");
-        for (path, decomposition) in [("one-sided", &one_sided), ("two-sided", &two_sided)] {
+        for (path, decomposition) in [("one-sided", &mut one_sided), ("two-sided", &mut two_sided)] {
             let mut r = DMatrix::zeros(n, n);
             decomposition.write_symmetric_square_root(&mut r);
             let error = (&r - &expected).norm() / expected.norm();
