@@ -13,11 +13,12 @@
 //!
 //! The S1 case is seed 1, on which every filter's two paths agree to
 //! rounding. Not every seed crosses the breakpoints so: where the position
-//! estimate comes to rest on a kink (seed 3's SVD-CKF sits at z₁ = −0.1 m
-//! around 4.5 s), in a direction the accelerations barely observe, rounding
-//! decides which way it leaves, and any filter's two paths may part by
-//! several σ (over seeds 1 to 12 at this load the CKF's did on seeds 6, 8 and
-//! 12, by up to 100 σ). That is the model's sensitivity, not the kernels'.
+//! estimate lingers near a kink, its points straddling it (seed 3's SVD-CKF
+//! at z₁ = −0.075 m, σ 0.014 m, against the kink at −0.1 m, around 4.4 s),
+//! in a direction the accelerations barely observe, the roundings'
+//! differences grow instead of dying out, and any filter's two paths may part
+//! by several σ (over seeds 1 to 12 at this load the CKF's did on seeds 6, 8
+//! and 12, by up to 100 σ). That is the model's sensitivity, not the kernels'.
 //!
 //! On a CPU without AVX2, or under `KALFMU_PORTABLE=1`, both runs take the
 //! portable path and agree bit for bit.
