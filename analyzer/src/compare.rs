@@ -341,8 +341,11 @@ pub fn compare_runs<'a>(runs: &'a [Run], options: &Options) -> Result<Comparison
 }
 
 /// The runs' short names: their filters if every run names a different one, else their
-/// files' stems if those differ, else `run 1`, `run 2`, …; a run seen through another
-/// estimate channel ([`crate::views`]) has the channel's name after it (`SRCKF smoothed`).
+/// files' stems if those differ, less the words all of them begin with (`joint_ours_…`
+/// and `joint_paper_…` are `ours_…` and `paper_…`: the shared case says nothing about a
+/// run, and widens every column of the report), else `run 1`, `run 2`, …; a run seen
+/// through another estimate channel ([`crate::views`]) has the channel's name after it
+/// (`SRCKF smoothed`).
 fn labels(runs: &[Run]) -> Vec<String> {
     let distinct = |names: &[String]| {
         let mut sorted = names.to_vec();
@@ -361,11 +364,31 @@ fn labels(runs: &[Run]) -> Vec<String> {
     if distinct(&filters) {
         return filters;
     }
-    let stems = named(&|r| r.file.file_stem().map_or(String::new(), |s| s.to_string_lossy().into()));
+    let stem = |r: &Run| -> String { r.file.file_stem().map_or(String::new(), |s| s.to_string_lossy().into()) };
+    let shared = shared_words(&runs.iter().map(stem).collect::<Vec<_>>());
+    let stems = named(&|r| stem(r)[shared..].to_string());
     if distinct(&stems) {
         return stems;
     }
     (1..=runs.len()).map(|k| format!("run {k}")).collect()
+}
+
+/// The length of the words (each ending in `_` or `-`) that every one of two or more
+/// names begins with and none is made of alone; 0 for a single name. It ends after an
+/// ASCII separator, so every name can be cut there.
+fn shared_words(names: &[String]) -> usize {
+    let Some((first, rest)) = names.split_first() else { return 0 };
+    if rest.is_empty() {
+        return 0;
+    }
+    let common = rest
+        .iter()
+        .fold(first.len(), |n, name| first.bytes().zip(name.bytes()).take(n).take_while(|(a, b)| a == b).count());
+    let shared = first.as_bytes()[..common].iter().rposition(|&b| b == b'_' || b == b'-').map_or(0, |i| i + 1);
+    if names.iter().any(|name| name.len() == shared) {
+        return 0;
+    }
+    shared
 }
 
 /// The name of a compared signal: the truth's, or `X~Y` when `--pair` pairs different names.

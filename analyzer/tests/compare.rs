@@ -111,6 +111,20 @@ fn runs_without_distinct_filters_are_named_by_their_files() {
 }
 
 #[test]
+fn the_words_every_file_begins_with_are_left_out_of_the_names() {
+    let named = |files: &[&str]| {
+        let specs: Vec<_> = files.iter().map(|f| (*f, "h", 1, None, 0.05)).collect();
+        compare_runs(&runs(&specs), &Options::default()).unwrap().labels
+    };
+    let case = named(&["joint_paper_accelerations", "joint_ours_accelerations", "joint_ours_deflections"]);
+    assert_eq!(case, ["paper_accelerations", "ours_accelerations", "ours_deflections"]);
+    // Only whole words, and never a whole name.
+    assert_eq!(named(&["weld_a1", "weld_a2"]), ["a1", "a2"]);
+    assert_eq!(named(&["run", "run_2"]), ["run", "run_2"]);
+    assert_eq!(named(&["s2-fast", "s2-slow"]), ["fast", "slow"]);
+}
+
+#[test]
 fn the_best_follows_each_metrics_goal() {
     let coverage = COLUMNS.iter().find(|c| c.key == "two_sigma_coverage").unwrap();
     assert_eq!(coverage.goal, Goal::Nearest(0.9545));
