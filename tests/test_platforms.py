@@ -286,10 +286,10 @@ def test_a_discarded_step_is_the_same_bit_for_bit(s5_fmu, kalfmu_bin, platform, 
 def test_aarch64_and_the_avx2_kernels_differ_by_rounding_only(case, aarch64, fmu_dir, linux_master, tmp_path):
     """The x86-64 default (AVX2 with FMA) against aarch64: every output of every filter
     within 10⁻⁶ of its largest size over the run (measured: 5·10⁻⁸ and below). The
-    SVD-CKF's too: its points come from
-    the symmetric root U·√Σ·Uᵀ, the same for every basis U of an eigenspace; from U·√Σ,
-    whose basis the roundings chose where eigenvalues are equal or nearly (a diagonal
-    prior), S2's forces were 3 % apart (docs/fmu-interface.md)."""
+    SVD-CKF's too: its points come from the symmetric root U·√Σ·Uᵀ, the same for every
+    basis U of an eigenspace; from U·√Σ, whose basis the roundings chose where eigenvalues
+    are equal or nearly (a diagonal prior), S2's forces were 3 % apart
+    (docs/fmu-interface.md)."""
     md = case.model_description
     fmu = packaged(fmu_dir, md.coSimulation.modelIdentifier)
     default = {k: v for k, v in os.environ.items() if k != "KALFMU_PORTABLE"}
