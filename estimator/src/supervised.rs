@@ -60,6 +60,14 @@ pub enum Event {
         /// The sample's instant (s).
         time: f64,
     },
+    /// A re-acquisition triggered by `channel` was undone: the belief the
+    /// gate would have kept explained the later samples better (`rival.rs`).
+    ReacquisitionUndone {
+        /// The channel (row of `z`) that triggered it.
+        channel: usize,
+        /// The sample's instant (s).
+        time: f64,
+    },
     /// The filter became inconsistent (`false`) or consistent again (`true`).
     Consistent {
         /// The new consistency flag.
@@ -413,9 +421,13 @@ impl SupervisedFilter {
         if let Some(channel) = self.supervisor.pending().reacquired {
             self.events.push(Event::Reacquired { channel, time });
         }
+        let undone = self.supervisor.pending().revision == crate::supervisor::Revision::Undone;
         let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());
         let events = &mut self.events;
         self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));
+        if let (true, Some(channel)) = (undone, self.supervisor.undone_trigger()) {
+            self.events.push(Event::ReacquisitionUndone { channel, time });
+        }
         if self.supervisor.consistent() != was_consistent {
             self.events.push(Event::Consistent { consistent: self.supervisor.consistent(), time });
         }

@@ -24,9 +24,10 @@ const CHANNEL: [&str; 11] = [
     "step_multiple",
     "step_run",
 ];
-const REACQUISITION: [&str; 4] = ["lost_run", "count", "since_last", "inflation"];
+const REACQUISITION: [&str; 5] = ["lost_run", "count", "since_last", "inflation", "undone"];
 const CURSOR: [&str; 2] = ["next", "filled"];
 const WINDOW_ENTRY: [&str; 2] = ["clipped_ratios", "rows"];
+const RIVAL_HEADER: [&str; 8] = ["active", "trigger", "evidence", "entries", "kind", "time", "inputs", "states"];
 
 fn position(fields: &[&str], name: &str) -> usize {
     fields.iter().position(|f| *f == name).unwrap_or_else(|| panic!("no field {name}"))
@@ -111,14 +112,17 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 3);
+    assert_eq!(words[header_word("version")], 4);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
     // After the window's entries: the adaptation (2 words), the jump counts (2),
-    // the review's header (5) and a flag per channel; no belief, with no jump under review.
+    // the review's header (5) and a flag per channel, the rival's header and its
+    // window of entries; no belief, with no jump under review and no rival.
     let tail = entry_word(3, 50, "clipped_ratios");
-    assert_eq!(words.len(), tail + 2 + 2 + 5 + 3, "the review's rows end the memory");
+    let rival = tail + 2 + 2 + 5 + 3;
+    assert_eq!(words.len(), rival + RIVAL_HEADER.len() + 50 * WINDOW_ENTRY.len(), "the rival's entries end the memory");
+    assert_eq!(words[rival + position(&RIVAL_HEADER, "active")], 0, "the fixed supervisor keeps no rival");
     assert_eq!(f64::from_bits(words[tail]), 0.0, "ln of the process-noise scale: not adapted");
     // The named fields hold what the supervisor reports.
     for (c, channel) in s.channels().iter().enumerate() {
@@ -176,7 +180,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 3"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 4"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);
@@ -250,4 +254,45 @@ fn a_window_not_yet_full_must_continue_right_after_its_last_sample() {
     let error = refusal(&bad, 50);
     assert!(error.contains("not a position of a 50-sample window"), "{error}");
     assert!(Supervisor::new(settings(50), 3).unwrap().load(&words).is_ok());
+}
+
+/// A re-acquisition's rival (`rival.rs`) is part of the memory while it is
+/// weighed: a supervisor loaded mid-way decides as the one saved does.
+#[test]
+fn a_memory_saved_while_a_rival_is_weighed_continues_exactly() {
+    for kind in FilterKind::ALL {
+        let case = linear_case(300, 33);
+        let settings = SupervisorSettings { window: 50, revise: true, ..SupervisorSettings::default().fixed() };
+        let (mut f, mut s) = (filter(kind, &case), Supervisor::new(settings, 3).unwrap());
+        let mut saved_mid_way = None;
+        for (k, (u, z)) in case.inputs.iter().zip(&case.measurements).enumerate() {
+            let mut z = z.clone();
+            if (100..115).contains(&k) {
+                z[0] += if k % 2 == 0 { 400.0 } else { -400.0 };
+            }
+            f.predict(u, 0.01).unwrap();
+            if let Some((g, t)) = saved_mid_way.as_mut() {
+                let (g, t): (&mut Box<dyn StateEstimator>, &mut Supervisor) = (g, t);
+                g.predict(u, 0.01).unwrap();
+                let b = t.gate(g.as_mut(), &z).unwrap().clone();
+                assert_eq!(s.gate(f.as_mut(), &z).unwrap(), &b, "{kind} at {k}");
+                t.commit(|_| {});
+            } else {
+                s.gate(f.as_mut(), &z).unwrap();
+            }
+            s.commit(|_| {});
+            if s.revising() && saved_mid_way.is_none() {
+                let mut t = Supervisor::new(settings, 3).unwrap();
+                t.load(&saved(&s)).unwrap();
+                assert_eq!(saved(&t), saved(&s), "{kind}");
+                let mut g = filter(kind, &case);
+                g.restore(&f.snapshot()).unwrap();
+                saved_mid_way = Some((g, t));
+            }
+        }
+        let (_, t) = saved_mid_way.unwrap_or_else(|| panic!("{kind}: the burst must make the supervisor re-acquire"));
+        assert_eq!(saved(&t), saved(&s), "{kind}");
+        assert_eq!(t.undone_reacquisitions(), s.undone_reacquisitions(), "{kind}");
+        assert_eq!(s.undone_reacquisitions(), 1, "{kind}: the burst's re-acquisition is undone");
+    }
 }

@@ -14,6 +14,7 @@ use crate::estimators::{self, status_value, Descriptor, MAX_DERIVED};
 use crate::ffi::Fmi2Status;
 use crate::input_timing_check::{InputTimingCheck, Phase};
 use crate::instance::Shell;
+use crate::plausibility::{self, Implausible, PlausibleRange};
 use crate::state::ModelState;
 use crate::timing::{Estimation, InputTiming, Reading};
 use crate::variables::{Parameters, Role, Variability};
@@ -38,6 +39,12 @@ pub struct Estimating {
     pub(crate) off_grid_reported: bool,
     /// Whether the master's ordering fits `input_timing` (`input_timing_check.rs`).
     pub(crate) timing_check: InputTimingCheck,
+    /// Where the unknown inputs can plausibly be (`plausibility.rs`), from the prior.
+    plausible: Option<PlausibleRange>,
+    /// The values of the last plausible reading: what the outputs show while the filter is lost.
+    last_plausible: Vec<f64>,
+    /// The estimate is outside its plausible range (reported once per episode).
+    pub(crate) lost: bool,
 }
 
 impl Estimating {
@@ -55,6 +62,9 @@ impl Estimating {
             missing_reported: vec![false; m],
             off_grid_reported: false,
             timing_check: InputTimingCheck::new(m),
+            plausible: None,
+            last_plausible: Vec::new(),
+            lost: false,
         }
     }
 
@@ -73,6 +83,8 @@ impl Estimating {
         self.missing_reported.iter_mut().for_each(|r| *r = false);
         self.off_grid_reported = false;
         self.timing_check.reset();
+        self.plausible = None;
+        self.lost = false;
         self.set_role(shell, Role::InputTimingCheck, f64::from(crate::input_timing_check::UNDECIDED));
     }
 
@@ -126,9 +138,20 @@ impl Estimating {
     /// `fmi2ExitInitializationMode`: builds the filter from the parameters.
     pub fn exit_initialization(&mut self, shell: &mut Shell) -> Fmi2Status {
         self.load_controls(&shell.values);
+        let noise_checked = build_filter(&self.descriptor, &shell.values, shell.start_time)
+            .and_then(|mut fresh| plausibility::check_noise(&self.descriptor, fresh.as_mut()));
+        if let Err(why) = noise_checked {
+            return shell.error(&format!("fmi2ExitInitializationMode: cannot build the estimator: {why}"));
+        }
         match build_estimation(&self.descriptor, &shell.values, shell.start_time, &self.controls) {
             Ok(estimation) => {
                 let kind = estimation.filter().kind();
+                match PlausibleRange::new(&self.descriptor, &shell.values, estimation.filter()) {
+                    Ok(range) => self.plausible = Some(range),
+                    Err(why) => return shell.error(&format!("fmi2ExitInitializationMode: {why}")),
+                }
+                self.last_plausible.clone_from(&shell.values);
+                self.lost = false;
                 // The inputs set in initialisation mode, kept for the first step to compare.
                 self.standing_measurement(&shell.values);
                 self.timing_check.at_exit(&self.measurement, &self.input_ever_set);
@@ -198,6 +221,7 @@ impl Estimating {
         }
         let off_grid = !estimation.at_current_sample(end);
         let timing = estimation.timing();
+        let implausible = self.plausible.as_ref().and_then(|range| range.check(estimation.filter()));
         if off_grid && !self.off_grid_reported {
             self.off_grid_reported = true;
             let ts = self.sample_time(shell);
@@ -215,7 +239,57 @@ impl Estimating {
         }
         self.inputs_set = false;
         self.outputs_stale = true;
-        Fmi2Status::Ok
+        self.judge_plausibility(shell, implausible, end)
+    }
+
+    /// After a step to `time`: a lost filter (`plausibility.rs`) makes the
+    /// step fmi2Warning, said once per episode, as is its end.
+    fn judge_plausibility(&mut self, shell: &Shell, implausible: Option<Implausible>, time: f64) -> Fmi2Status {
+        match (implausible, self.lost) {
+            (Some(bad), lost) => {
+                if !lost {
+                    let name = self.state_name(bad.state);
+                    shell.log(
+                        Fmi2Status::Warning,
+                        "logStatusWarning",
+                        &format!(
+                            "the filter is lost at t = {time} s: {name} is {:e} ± {:e}, beyond its plausible range \
+                             {:e} ± {:e} ({} prior σ); the outputs hold the last plausible estimate and \
+                             filter_healthy is false until it is plausible again (are the noise parameters right?)",
+                            bad.value,
+                            bad.std,
+                            bad.centre,
+                            bad.bound,
+                            plausibility::PRIOR_SIGMAS
+                        ),
+                    );
+                }
+                self.lost = true;
+                Fmi2Status::Warning
+            }
+            (None, true) => {
+                self.lost = false;
+                shell.log(Fmi2Status::Ok, "logEvents", &format!("the estimate is plausible again at t = {time} s"));
+                Fmi2Status::Ok
+            }
+            (None, false) => Fmi2Status::Ok,
+        }
+    }
+
+    /// After an FMU state is restored: the plausible range of its filter's prior;
+    /// whether it is lost is judged at the next step.
+    pub(crate) fn restored_plausibility(&mut self, range: Option<PlausibleRange>) {
+        self.plausible = range;
+        self.lost = false;
+    }
+
+    /// The name of the output of state `i`'s estimate.
+    fn state_name(&self, i: usize) -> String {
+        self.descriptor
+            .variables
+            .iter()
+            .find(|v| v.role == Role::Estimate(i))
+            .map_or_else(|| format!("state {i}"), |v| v.name.to_string())
     }
 
     /// At `fmi2DoStep`, with the measurements standing: compares them with
@@ -280,6 +354,11 @@ impl Estimating {
                     "logStatusWarning",
                     format!("re-acquired at t = {time} s: input {} failed the gate reacquire_after samples in a row; the covariance was inflated and every input used", input(channel)),
                 ),
+                Event::ReacquisitionUndone { channel, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("the re-acquisition triggered by input {} is undone at t = {time} s: the belief that left that input out explains the samples since better, so it was the sensor; the outputs are that belief's", input(channel)),
+                ),
                 Event::Consistent { consistent: false, time } => (
                     Fmi2Status::Warning,
                     "logStatusWarning",
@@ -331,6 +410,13 @@ impl Estimating {
         let failed = match estimation.read(shell.time, inputs, &noise_over) {
             Ok(reading) => {
                 write_outputs(&self.descriptor, &mut shell.values, Some(&reading));
+                let plausible = self.plausible.as_ref().is_none_or(|range| range.check(reading.belief).is_none());
+                if plausible {
+                    // Sized once, at the first read: later reads allocate nothing.
+                    self.last_plausible.clone_from(&shell.values);
+                } else {
+                    hold_last_plausible(&self.descriptor, &mut shell.values, &self.last_plausible);
+                }
                 None
             }
             Err(why) => Some(why),
@@ -387,6 +473,23 @@ impl Estimating {
                     );
                 }
             }
+        }
+    }
+}
+
+/// Puts the estimates of the last plausible reading back into the output
+/// values (the counts, flags and statuses stay the reading's), the filter not healthy.
+fn hold_last_plausible(descriptor: &Descriptor, values: &mut [f64], last: &[f64]) {
+    for ((v, x), &held) in descriptor.variables.iter().zip(values.iter_mut()).zip(last) {
+        match v.role {
+            Role::Estimate(_)
+            | Role::EstimateStd(_)
+            | Role::Smoothed(_)
+            | Role::SmoothedStd(_)
+            | Role::SmoothedTime
+            | Role::Derived(_) => *x = held,
+            Role::FilterHealthy => *x = 0.0,
+            _ => {}
         }
     }
 }

@@ -30,6 +30,7 @@ pub mod input_timing_check;
 pub mod instance;
 pub mod model_description;
 pub mod plants;
+pub mod plausibility;
 mod serialize;
 pub mod simulating;
 pub mod state;

@@ -102,3 +102,22 @@ fn a_true_load_step_of_ten_times_the_rms_is_never_rejected_and_followed_at_once(
         assert!(r.max_error_sigmas < 5.0 && r.correlation > 0.9995, "{}: {r:?}", r.kind);
     }
 }
+
+/// A burst long enough to re-acquire (ten samples of ±100× the RMS): on
+/// `z1_ddot` the re-acquisition takes it in, and its rival (the belief that
+/// left the channel out) explains the next samples better and is kept; on
+/// `z2_ddot` each sample is an ambiguous jump that its review retracts. Either
+/// way the load is back within 3σ at once and stays there, and the filter is
+/// healthy throughout.
+#[test]
+fn a_burst_that_re_acquires_is_undone_and_the_load_is_back_at_once() {
+    for (fault, undone) in [(Fault::Burst, 1), (Fault::BurstLoadChannel, 0)] {
+        for r in runs(fault) {
+            assert_eq!((r.false_rejections, r.unhealthy_samples, r.undone), (0, 0, undone), "{fault} {}: {r:?}", r.kind);
+            assert!(r.corrupted_rejected.0 >= 9, "{fault} {}: {r:?}", r.kind);
+            assert!(r.recovery.is_some_and(|t| t <= 0.01), "{fault} {}: {r:?}", r.kind);
+            // The largest error after the burst is that of clean data: about 3.4× the RMS error.
+            assert!(r.error_after_recovery.is_some_and(|x| x < 4.0), "{fault} {}: {r:?}", r.kind);
+        }
+    }
+}

@@ -105,6 +105,17 @@ impl ConsistencyWindow {
         self.judge();
     }
 
+    /// Replaces the latest `entries.len()` samples (oldest first; at most
+    /// those in the window) by `entries`, and judges afresh.
+    pub fn replace_latest(&mut self, entries: &[WindowEntry]) {
+        let w = self.entries.len();
+        let k = entries.len().min(self.cursor.filled);
+        for (back, entry) in entries[entries.len() - k..].iter().rev().enumerate() {
+            self.entries[(self.cursor.next + w - 1 - back) % w] = *entry;
+        }
+        self.judge();
+    }
+
     /// The verdict on the samples in the window, summed afresh (w additions:
     /// no drift of a running sum).
     fn judge(&mut self) {

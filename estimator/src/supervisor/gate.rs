@@ -21,8 +21,9 @@
 //! unknown inputs (see `jump.rs`); a jump under review from the last sample is
 //! decided before any pass.
 
+use super::consistency::WindowEntry;
 use super::jump::empty_snapshot;
-use super::outcome::{Outcome, RowOutcome};
+use super::outcome::{Outcome, Revision, RowOutcome};
 use super::settings::SupervisorSettings;
 use super::Supervisor;
 use crate::error::FilterError;
@@ -92,8 +93,20 @@ pub(super) struct Workspace {
     pub hypothesis: Snapshot,
     /// The belief of the jump hypothesis of a jump taken at this sample.
     pub jumped: Snapshot,
-    /// The other belief of a review.
+    /// The other belief of a review; scratch for a rival's prediction.
     pub alternative: Snapshot,
+    /// The rival's belief after this sample's update (`rival.rs`), or the
+    /// rival a re-acquisition forks.
+    pub rival_next: Snapshot,
+    /// What became of each row in the rival's update.
+    pub rival_rows: Vec<RowOutcome>,
+    /// The rival's NIS and rows used in that update.
+    pub rival_update: (f64, usize),
+    /// The rival's consistency-window entry for this sample.
+    pub rival_entry: WindowEntry,
+    /// The robust log-likelihoods of this sample's first pass: the rival's and the filter's own.
+    pub rival_score: f64,
+    pub main_score: f64,
 }
 
 impl Workspace {
@@ -115,6 +128,12 @@ impl Workspace {
             hypothesis: empty_snapshot(),
             jumped: empty_snapshot(),
             alternative: empty_snapshot(),
+            rival_next: empty_snapshot(),
+            rival_rows: vec![RowOutcome::Missing; m],
+            rival_update: (0.0, 0),
+            rival_entry: WindowEntry::default(),
+            rival_score: 0.0,
+            main_score: 0.0,
         }
     }
 
@@ -190,6 +209,11 @@ impl Supervisor {
         filter.snapshot_into(&mut self.work.before);
         self.reserve_beliefs();
         self.review(filter)?;
+        let rival = self.rival.active && self.settings.revise && self.step_rival(filter)?;
+        if self.rival.active && !rival {
+            // A rival that cannot be predicted or updated is dropped.
+            self.pending.revision = Revision::Confirmed;
+        }
         let mut first_pass = true;
         // No row has been left out by the gate's own tests yet: a re-acquisition
         // may still be decided, or a jump taken.
@@ -208,6 +232,7 @@ impl Supervisor {
             if may_reacquire {
                 let decision = self.reacquisition.decide(&pass, self.work.tested(), &self.channels, &self.settings);
                 if let Some((trigger, factor)) = decision {
+                    self.fork_rival(filter, |r, ratio| pass.fails(r, ratio))?;
                     self.reacquire(filter, trigger, factor)?;
                     break;
                 }
@@ -223,6 +248,9 @@ impl Supervisor {
         if let Some(steps) = &self.steps {
             steps.take(&self.channels, &self.work.residuals, &mut self.pending, &mut self.work.before, filter)?;
         }
+        if rival {
+            self.weigh_rival(filter)?;
+        }
         self.gather_adaptation_evidence();
         Ok(&self.pending)
     }
@@ -237,6 +265,8 @@ impl Supervisor {
             &mut self.work.alternative,
             &mut self.review.hypothesis,
             &mut self.review.jumped,
+            &mut self.work.rival_next,
+            &mut self.rival.belief,
         ];
         for belief in beliefs {
             for (buffer, len) in [
@@ -252,6 +282,12 @@ impl Supervisor {
     /// The adaptation's evidence: the first pass's clipped normalised
     /// innovations and shares of the rows finally used (`adaptation.rs`).
     fn gather_adaptation_evidence(&mut self) {
+        if self.pending.revision == Revision::Undone {
+            // The update is the rival's: the filter's own first pass says nothing of it.
+            (self.pending.adaptation_ratios, self.pending.adaptation_share, self.pending.adaptation_rows) =
+                (0.0, 0.0, 0);
+            return;
+        }
         let clip = self.thresholds.adaptation_clip;
         let (mut ratios, mut share, mut rows) = (0.0, 0.0, 0);
         for (r, outcome) in self.pending.rows.iter().enumerate() {
@@ -294,6 +330,9 @@ impl Supervisor {
         pending.ambiguous = false;
         pending.reviewed = false;
         pending.retracted.fill(false);
+        pending.forked = false;
+        pending.revision = Revision::None;
+        self.work.main_score = 0.0;
         self.work.residuals.fill(f64::NAN);
         self.work.first_ratios.fill(f64::NAN);
     }
@@ -328,7 +367,9 @@ impl Supervisor {
         if first_pass {
             self.pending.worst_ratio = worst;
             let clip = row_threshold.min(1e6);
-            self.pending.clipped_ratios = work.tested().map(|(_, ratio)| ratio.min(clip)).sum();
+            let mut clipped = 0.0;
+            work.main_score = super::rival::score(innovation, self.thresholds.adaptation_clip, clip, &mut clipped);
+            self.pending.clipped_ratios = clipped;
             self.pending.gated_rows = dof;
             let r_given = filter.noise().r();
             for &r in &work.rows {

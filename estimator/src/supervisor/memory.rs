@@ -9,15 +9,18 @@
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
 //!                 suspended, last_value, repeats, step_multiple, step_run
-//! Reacquisition   lost_run, count, since_last, inflation
+//! Reacquisition   lost_run, count, since_last, inflation, undone
 //! Cursor          next, filled
 //! WindowEntry × w clipped_ratios, rows
 //! Adaptation      log_scale, mean_ratio
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
+//! RivalHeader     active, trigger, evidence, entries, kind, time, inputs, states
+//! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
-//! jump's): each its inputs, states means and states² covariance words
+//! jump's), then the rival's: each its inputs, states means and states²
+//! covariance words
 //! ```
 //!
 //! The `record!` lines below are that table: a record's words are its fields
@@ -39,7 +42,7 @@ use crate::filter::FilterKind;
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 3;
+const VERSION: u64 = 4;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -177,7 +180,25 @@ struct ReviewRow {
     explained: bool,
 }
 
+/// The rival of a re-acquisition (`rival.rs`), and the size of its belief.
+struct RivalHeader {
+    /// A rival is alive.
+    active: bool,
+    /// The channel that triggered the re-acquisition.
+    trigger: usize,
+    /// The evidence for it so far (nats).
+    evidence: f64,
+    /// Its window entries since the fork.
+    entries: usize,
+    /// Its belief's filter kind, time and size, as the review's.
+    kind: usize,
+    time: f64,
+    inputs: usize,
+    states: usize,
+}
+
 record!(ReviewHeader { active, kind, time, inputs, states });
+record!(RivalHeader { active, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
 record!(Adaptation { log_scale, mean_ratio });
 record!(Jumps { taken, retracted });
@@ -194,7 +215,7 @@ record!(Channel {
     step_multiple,
     step_run,
 });
-record!(Reacquisition { lost_run, count, since_last, inflation });
+record!(Reacquisition { lost_run, count, since_last, inflation, undone });
 record!(Cursor { next, filled });
 record!(WindowEntry { clipped_ratios, rows });
 
@@ -227,6 +248,8 @@ impl Supervisor {
             + Jumps::WORDS
             + ReviewHeader::WORDS
             + m * ReviewRow::WORDS
+            + RivalHeader::WORDS
+            + w * WindowEntry::WORDS
     }
 
     /// The review's header as saved: the belief only while a jump awaits review.
@@ -235,6 +258,22 @@ impl Supervisor {
         let active = self.review.active;
         ReviewHeader {
             active,
+            kind: if active { FilterKind::ALL.iter().position(|k| *k == belief.kind).unwrap_or(0) } else { 0 },
+            time: if active { belief.time } else { 0.0 },
+            inputs: if active { belief.input.len() } else { 0 },
+            states: if active { belief.mean.len() } else { 0 },
+        }
+    }
+
+    /// The rival's header as saved: the belief only while a rival is alive.
+    fn rival_header(&self) -> RivalHeader {
+        let (rival, active) = (&self.rival, self.rival.active);
+        let belief = &rival.belief;
+        RivalHeader {
+            active,
+            trigger: if active { rival.trigger } else { 0 },
+            evidence: if active { rival.evidence } else { 0.0 },
+            entries: if active { rival.entries.len() } else { 0 },
             kind: if active { FilterKind::ALL.iter().position(|k| *k == belief.kind).unwrap_or(0) } else { 0 },
             time: if active { belief.time } else { 0.0 },
             inputs: if active { belief.input.len() } else { 0 },
@@ -272,11 +311,23 @@ impl Supervisor {
         for &explained in &self.review.explained {
             ReviewRow { explained }.save(out);
         }
+        let rival = self.rival_header();
+        rival.save(out);
+        for k in 0..entries.len() {
+            let entry = if rival.active { self.rival.entries.get(k).copied() } else { None };
+            entry.unwrap_or_default().save(out);
+        }
         if review.active {
             for belief in [&self.review.hypothesis, &self.review.jumped] {
                 for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
                     out.push(v.to_bits());
                 }
+            }
+        }
+        if rival.active {
+            let belief = &self.rival.belief;
+            for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
+                out.push(v.to_bits());
             }
         }
     }
@@ -314,10 +365,13 @@ impl Supervisor {
         if words.len() < fixed {
             return Err(invalid(format!("{} words, its header says {fixed}", words.len())));
         }
-        let review_at = fixed - ReviewHeader::WORDS - m * ReviewRow::WORDS;
+        let rival_at = fixed - RivalHeader::WORDS - w * WindowEntry::WORDS;
+        let review_at = rival_at - ReviewHeader::WORDS - m * ReviewRow::WORDS;
         let review = ReviewHeader::load(&words[review_at..review_at + ReviewHeader::WORDS], "the review")?;
+        let rival = RivalHeader::load(&words[rival_at..rival_at + RivalHeader::WORDS], "the rival")?;
         let belief_words = 2 * (review.inputs + review.states + review.states * review.states);
-        let expected = fixed + belief_words;
+        let rival_words = rival.inputs + rival.states + rival.states * rival.states;
+        let expected = fixed + belief_words + rival_words;
         if words.len() != expected {
             return Err(invalid(format!("{} words, its header says {expected}", words.len())));
         }
@@ -330,6 +384,22 @@ impl Supervisor {
         };
         if !review.active && belief_words != 0 {
             return Err(invalid("a belief is saved with no jump under review".into()));
+        }
+        if !rival.active && rival_words != 0 {
+            return Err(invalid("a rival's belief is saved with no rival alive".into()));
+        }
+        let Some(&rival_kind) = FilterKind::ALL.get(rival.kind) else {
+            return Err(invalid(format!(
+                "the rival's filter kind {} is none of the {}",
+                rival.kind,
+                FilterKind::ALL.len()
+            )));
+        };
+        if rival.trigger >= m || rival.entries >= w.max(1) || !rival.evidence.is_finite() {
+            return Err(invalid(format!(
+                "the rival (trigger {}, {} entries, evidence {}) does not fit {m} channels and a {w}-sample window",
+                rival.trigger, rival.entries, rival.evidence
+            )));
         }
 
         let (channel_words, at) = records::<Channel>(words, Header::WORDS, m);
@@ -381,8 +451,18 @@ impl Supervisor {
         for (c, words) in row_words.chunks_exact(ReviewRow::WORDS).enumerate() {
             explained.push(ReviewRow::load(words, &format!("review row {c}"))?.explained);
         }
+        let (rival_entry_words, at) = records::<WindowEntry>(words, at + RivalHeader::WORDS, w);
+        let mut rival_entries = Vec::with_capacity(w);
+        for (k, words) in rival_entry_words.chunks_exact(WindowEntry::WORDS).take(rival.entries).enumerate() {
+            let entry = WindowEntry::load(words, &format!("rival window entry {k}"))?;
+            if !(entry.clipped_ratios >= 0.0 && entry.clipped_ratios.is_finite()) || entry.rows > m {
+                return Err(invalid(format!("rival window entry {k} is not a sum of at most {m} rows")));
+            }
+            rival_entries.push(entry);
+        }
         let floats: Vec<f64> = words[at..].iter().map(|w| f64::from_bits(*w)).collect();
-        let (hypothesis, jumped) = floats.split_at(belief_words / 2);
+        let (review_floats, rival_floats) = floats.split_at(belief_words);
+        let (hypothesis, jumped) = review_floats.split_at(belief_words / 2);
 
         self.channels = channels;
         self.adaptation = adaptation;
@@ -400,6 +480,22 @@ impl Supervisor {
                     to.clear();
                     to.extend_from_slice(from);
                 }
+            }
+        }
+        self.rival.active = rival.active;
+        (self.rival.trigger, self.rival.evidence) = (rival.trigger, rival.evidence);
+        self.rival.entries.clear();
+        self.rival.entries.extend_from_slice(&rival_entries);
+        if rival.active {
+            let belief = &mut self.rival.belief;
+            let (input, rest) = rival_floats.split_at(rival.inputs);
+            let (mean, covariance) = rest.split_at(rival.states);
+            (belief.kind, belief.time) = (rival_kind, rival.time);
+            for (to, from) in
+                [(&mut belief.input, input), (&mut belief.mean, mean), (&mut belief.covariance, covariance)]
+            {
+                to.clear();
+                to.extend_from_slice(from);
             }
         }
         self.reacquisition = reacquisition;

@@ -13,6 +13,10 @@
 //!   means either a broken sensor or a filter that lost the state; the
 //!   covariance is inflated once, within a budget, and the next samples tell
 //!   the two apart.
+//! * **Revision** (`rival.rs`): the update the gate alone would have made
+//!   is kept beside a re-acquisition as its rival, and the next samples'
+//!   data decide which belief stays: a burst of gross errors taken in is
+//!   undone.
 //! * **Quantised bias steps** (optional, [`Supervisor::with_steps`],
 //!   `steps.rs`): a bias that jumps by a known quantum is taken into its bias
 //!   state instead of inflating every state.
@@ -39,12 +43,13 @@ mod jump;
 mod memory;
 mod outcome;
 mod reacquisition;
+mod rival;
 mod settings;
 mod smoothing_prior;
 mod steps;
 
 pub use channel::Channel;
-pub use outcome::{FaultChange, Outcome, RowOutcome};
+pub use outcome::{FaultChange, Outcome, Revision, RowOutcome};
 pub use settings::SupervisorSettings;
 pub use steps::QuantizedSteps;
 
@@ -53,6 +58,7 @@ use consistency::{ConsistencyWindow, WindowEntry};
 use gate::{Thresholds, Workspace};
 use jump::{Jumps, Review};
 use reacquisition::Reacquisition;
+use rival::Rival;
 
 use crate::error::FilterError;
 use crate::filter::StateEstimator;
@@ -73,6 +79,7 @@ pub struct Supervisor {
     adaptation: Adaptation,
     jumps: Jumps,
     review: Review,
+    rival: Rival,
     // The pending sample.
     pending: Outcome,
     /// The measurement of the pending outcome, as offered.
@@ -95,6 +102,7 @@ impl Supervisor {
             adaptation: Adaptation::new(),
             jumps: Jumps::default(),
             review: Review::new(m),
+            rival: Rival::new(settings.window),
             pending: Outcome::none(m),
             z_offered: vec![f64::NAN; m],
             work: Workspace::new(m),
@@ -171,6 +179,21 @@ impl Supervisor {
         self.reacquisition.count
     }
 
+    /// Re-acquisitions that their rival's evidence undid (`rival.rs`).
+    pub fn undone_reacquisitions(&self) -> u64 {
+        self.reacquisition.undone
+    }
+
+    /// The channel whose re-acquisition the rival stands against, or last stood against.
+    pub fn undone_trigger(&self) -> Option<usize> {
+        (self.reacquisition.undone > 0 || self.rival.active).then_some(self.rival.trigger)
+    }
+
+    /// A re-acquisition's rival is being weighed against it (`rival.rs`).
+    pub fn revising(&self) -> bool {
+        self.rival.active
+    }
+
     /// The windowed normalised innovations are within their bound (see the module documentation).
     pub fn consistent(&self) -> bool {
         self.window.consistent()
@@ -242,6 +265,8 @@ impl Supervisor {
             }
         }
         self.reacquisition.count(outcome, self.settings.max_inflation);
+        self.commit_rival();
+        let outcome = &self.pending;
         self.window.push(WindowEntry { clipped_ratios: outcome.clipped_ratios, rows: outcome.gated_rows });
         if outcome.retracted.contains(&true) {
             // The spike the review found counts as rejected, one sample late.

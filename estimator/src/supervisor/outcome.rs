@@ -14,6 +14,20 @@ pub enum RowOutcome {
     Stuck,
 }
 
+/// What became of the rival a re-acquisition set aside (`rival.rs`) at a sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Revision {
+    /// No rival was alive.
+    None,
+    /// Both beliefs were scored; the data have not decided yet. The evidence
+    /// this sample added for the rival (nats).
+    Weighed(f64),
+    /// The re-acquired belief won: the rival is dropped.
+    Confirmed,
+    /// The rival won: the re-acquisition is undone, and this update is the rival's.
+    Undone,
+}
+
 /// The outcome of one gated update.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Outcome {
@@ -57,6 +71,11 @@ pub struct Outcome {
     pub adaptation_share: f64,
     /// How many rows those sums have.
     pub adaptation_rows: usize,
+    /// A re-acquisition at this sample kept the update the gate alone would
+    /// have made as its rival (`rival.rs`).
+    pub forked: bool,
+    /// What became of the rival of an earlier re-acquisition.
+    pub revision: Revision,
     /// Per row: the multiple its rejected innovations sit at and how many in
     /// a row, for the channel to remember at the commit.
     pub(super) watch: Vec<(i64, u32)>,
@@ -83,6 +102,8 @@ impl Outcome {
             adaptation_ratios: 0.0,
             adaptation_share: 0.0,
             adaptation_rows: 0,
+            forked: false,
+            revision: Revision::None,
             watch: vec![(0, 0); m],
         }
     }

@@ -47,12 +47,14 @@ pub(super) struct Reacquisition {
     pub since_last: u32,
     /// The product of the re-acquisitions' factors since a sample last passed the gate whole.
     pub inflation: f64,
+    /// Re-acquisitions their rival's evidence undid (`rival.rs`).
+    pub undone: u64,
 }
 
 impl Reacquisition {
     /// Before the first sample.
     pub fn new() -> Self {
-        Self { lost_run: 0, count: 0, since_last: u32::MAX, inflation: 1.0 }
+        Self { lost_run: 0, count: 0, since_last: u32::MAX, inflation: 1.0, undone: 0 }
     }
 
     /// Whether a failing pass calls for a re-acquisition, and if so the

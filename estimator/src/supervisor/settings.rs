@@ -36,6 +36,10 @@ pub struct SupervisorSettings {
     /// other rows do not contradict, is used from `P + c·Q` instead of being
     /// rejected, and reviewed at the next sample (`jump.rs`). Default on.
     pub jumps: bool,
+    /// A re-acquisition keeps the update the gate alone would have made as
+    /// a rival, and the data of the next samples decide which of the two
+    /// stays (`rival.rs`). Default on.
+    pub revise: bool,
     /// Samples over which the process-noise scale adapts (`adaptation.rs`):
     /// its gain per sample is the inverse. 0 turns the adaptation off (the
     /// scale stays 1). Default 200. The scale is on the unknown inputs' noise
@@ -65,6 +69,7 @@ impl Default for SupervisorSettings {
             consistency_margin: 3.0,
             max_inflation: 1e8,
             jumps: true,
+            revise: true,
             adaptation_window: 200,
             min_process_noise_scale: 1e-2,
             max_process_noise_scale: 1e2,
@@ -109,9 +114,10 @@ impl SupervisorSettings {
         Self { jumps: true, adaptation_window: window, ..self }
     }
 
-    /// These settings as the supervisor was before it learnt `Q` and told
-    /// jumps from faults: every failing row rejected, `Q` as given.
+    /// These settings as the supervisor was before it learnt `Q`, told
+    /// jumps from faults and revised its re-acquisitions: every failing row
+    /// rejected, `Q` as given, a re-acquisition final.
     pub fn fixed(self) -> Self {
-        Self { jumps: false, adaptation_window: 0, ..self }
+        Self { jumps: false, revise: false, adaptation_window: 0, ..self }
     }
 }

@@ -10,6 +10,9 @@
 //! - a jump added `c·Q` on the jump states (the belief after an ambiguous jump
 //!   is a mixture of the jump and the fault hypothesis; its prediction is taken
 //!   as the jump's, the looser of the two);
+//! - an undone re-acquisition (`rival.rs`) put the rival's belief in place of
+//!   the update of the prediction: the link is cut (the covariance scaled by
+//!   [`CUT`]), so that nothing of the re-acquired belief is carried back;
 //! - a bias step moved its bias state's mean by the step, which is known to
 //!   have been taken, so the prediction takes it too.
 //!
@@ -18,7 +21,11 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::outcome::Revision;
 use super::Supervisor;
+
+/// The factor on a prediction's covariance that cuts its link to the step before.
+const CUT: f64 = 1e8;
 
 impl Supervisor {
     /// Applies to the prediction `mean`, `covariance` (made with the process
@@ -32,6 +39,9 @@ impl Supervisor {
         let outcome = &self.pending;
         if outcome.reacquired.is_some() {
             *covariance *= outcome.inflation;
+        }
+        if outcome.revision == Revision::Undone {
+            *covariance *= CUT;
         }
         if outcome.jump > 0.0 {
             let n = covariance.nrows();

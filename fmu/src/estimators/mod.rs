@@ -47,6 +47,16 @@ pub fn no_derived_outputs(_: &Parameters, _: &Reading<'_>, _: &mut [f64]) {}
 /// (`estimator::QuantizedSteps`), if the estimator's channels have any.
 pub type BuildSteps = fn(&Parameters) -> Result<Option<QuantizedSteps>, String>;
 
+/// The largest plausible magnitude of the estimator's unknown inputs (and of
+/// their σ) from the parameter values; `None`: the prior says it
+/// (`plausibility.rs`).
+pub type PlausibleBound = fn(&Parameters) -> Result<Option<f64>, String>;
+
+/// For an estimator whose parameters hold no scale of its unknown inputs.
+pub fn bound_from_prior(_: &Parameters) -> Result<Option<f64>, String> {
+    Ok(None)
+}
+
 /// For an estimator whose channels take no quantised steps.
 pub fn no_quantized_steps(_: &Parameters) -> Result<Option<QuantizedSteps>, String> {
     Ok(None)
@@ -84,6 +94,8 @@ pub struct Descriptor {
     /// The states of the model's unknown inputs (its augmented states): the
     /// only ones a jump moves (`estimator::Supervisor::with_jump_states`).
     pub unknown_inputs: &'static [usize],
+    /// How large the unknown inputs can plausibly be (`plausibility.rs`).
+    pub plausible_bound: PlausibleBound,
     /// The states the FMU also gives smoothed (`smoothing_lag`): what it is
     /// there to estimate. Each has an estimate output, whose name the smoothed
     /// outputs take with `_smoothed` and `_smoothed_std`.

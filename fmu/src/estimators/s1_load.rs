@@ -13,7 +13,7 @@ use estimator::{
 };
 use nalgebra::{DMatrix, DVector};
 
-use super::{no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
+use super::{bound_from_prior, no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
 use crate::variables::{Parameters, Role, Variable};
 
 const STATE: [(&str, &str, &str); 6] = [
@@ -108,6 +108,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &Oscillator2DofLoad::UNKNOWN_INPUTS,
+        plausible_bound: bound_from_prior,
         smoothed_states: &Oscillator2DofLoad::UNKNOWN_INPUTS,
         guid: String::new(),
     }

@@ -196,6 +196,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &WheelRailVertical::UNKNOWN_INPUTS,
+        plausible_bound: super::wheel_rail::hundred_static_wheel_loads,
         smoothed_states: &WheelRailVertical::UNKNOWN_INPUTS,
         guid: String::new(),
     }

@@ -461,6 +461,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive,
         build_steps: no_quantized_steps,
         unknown_inputs: &WheelRailRoll::UNKNOWN_INPUTS,
+        plausible_bound: super::wheel_rail::hundred_static_wheel_loads,
         smoothed_states: &WheelRailRoll::UNKNOWN_INPUTS,
         guid: String::new(),
     }

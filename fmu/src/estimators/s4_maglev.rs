@@ -10,7 +10,7 @@ use estimator::{
 };
 use nalgebra::DMatrix;
 
-use super::{DefaultExperiment, Descriptor, MAX_DERIVED};
+use super::{bound_from_prior, DefaultExperiment, Descriptor, MAX_DERIVED};
 use crate::timing::Reading;
 use crate::variables::{Parameters, Role, Variable};
 
@@ -271,6 +271,7 @@ pub(super) fn descriptor() -> Descriptor {
         build_steps: steps,
         unknown_inputs: &PrwTrain::UNKNOWN_INPUTS,
         // The motion: position, speed and acceleration (the offsets are means to it).
+        plausible_bound: bound_from_prior,
         smoothed_states: &[0, 1, 2],
         guid: String::new(),
     }

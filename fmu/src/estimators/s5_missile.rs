@@ -16,7 +16,7 @@ use estimator::{
     build_filter, Discretized, FilterKind, Gaussian, Noise, StateEstimator, SupervisorSettings, UnscentedParams,
 };
 
-use super::{no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
+use super::{bound_from_prior, no_derived_outputs, no_quantized_steps, DefaultExperiment, Descriptor};
 use crate::variables::{Parameters, Role, Variable};
 
 /// The measurements, in the model's order: name, unit, description, fault flag and its
@@ -232,6 +232,7 @@ pub(super) fn descriptor() -> Descriptor {
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &Missile6Dof::UNKNOWN_INPUTS,
+        plausible_bound: bound_from_prior,
         smoothed_states: &Missile6Dof::UNKNOWN_INPUTS,
         guid: String::new(),
     }

@@ -49,3 +49,9 @@ impl Layout {
         Ok(Gaussian::diagonal(&mean, &variances))
     }
 }
+
+/// The plausible bound of a wheel–rail force and its σ: 100 times the static
+/// wheel load (a wheel unloaded or hit by a hundred times its weight is a lost filter).
+pub fn hundred_static_wheel_loads(p: &Parameters) -> Result<Option<f64>, String> {
+    Ok(Some(100.0 * p.positive("static_wheel_load")?))
+}

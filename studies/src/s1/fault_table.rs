@@ -103,7 +103,7 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
     }
     let _ = writeln!(
         out,
-        "{:<11} {:<8} {:>13} {:>12} {:>7} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7}",
+        "{:<11} {:<8} {:>13} {:>12} {:>7} {:>10} {:>9} {:>10} {:>8} {:>9} {:>7} {:>7}",
         "fault",
         "filter",
         "false rej.",
@@ -114,6 +114,7 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         "max |e|/σ",
         "corr",
         "recovery",
+        "after",
         "reacq."
     );
     let mut failures = 0;
@@ -126,7 +127,7 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         let rate = r.false_rejections as f64 / r.good_rows.max(1) as f64;
         let _ = writeln!(
             out,
-            "{:<11} {:<8} {:>5} {:>7.1e} {:>5}/{:<6} {:>7} {:>10} {:>9} {:>10.2} {:>8.5} {:>9} {:>7}",
+            "{:<11} {:<8} {:>5} {:>7.1e} {:>5}/{:<6} {:>7} {:>10} {:>9} {:>10.2} {:>8.5} {:>9} {:>7} {:>7}",
             r.fault.to_string(),
             r.kind.name(),
             r.false_rejections,
@@ -139,12 +140,14 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
             r.max_error_sigmas,
             r.correlation,
             r.recovery.map_or("—".into(), |t| format!("{t:.3}s")),
-            r.reacquisitions
+            r.error_after_recovery.map_or("—".into(), |x| format!("{x:.2}")),
+            format!("{}/{}", r.reacquisitions, r.undone)
         );
     }
     print!("{out}");
     println!("false rej.: good rows rejected (count, rate); bad rej.: corrupted finite rows rejected / offered; delay: samples from the first corrupted sample to the first flag on its channel");
     println!("false flt: samples a channel was flagged faulty with no corrupted or missing sample in its last fault_after samples; unhealthy: samples inconsistent or lost");
+    println!("recovery: from a load step or a burst's last sample until |e| stays within 3σ for 0.5 s; after: a burst's largest |e| from 0.5 s after it, over the RMS error of the 10 s before it; reacq.: re-acquisitions/undone");
     // A filter that fails under a fault is a finding of the study, so it is a row of the
     // table; the command fails only when it cannot run (bad arguments).
     if failures > 0 {

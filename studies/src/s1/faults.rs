@@ -20,6 +20,8 @@
 //! | drift | `z1_ddot` offset growing by 1·rms per second for 10 s, then gone |
 //! | stuck z2, drift z2 | the same on `z2_ddot` |
 //! | dropout | `z2_ddot` missing (NaN) for 1 s, 10 s later both channels for 0.5 s |
+//! | burst | ten samples (50 ms) of ±100·rms, alternating, on `z1_ddot`: long enough to re-acquire |
+//! | burst z2 | the same ten samples on `z2_ddot` |
 //! | load step | no sensor fault: the true load steps by 10× its RMS (100 N) |
 
 use std::fmt;
@@ -37,6 +39,9 @@ use truth::s1::{simulate_with, Case, Measurements, Settings};
 
 /// When the faults start (s).
 pub const FAULT_START: f64 = 20.0;
+
+/// The length of a burst (samples): the default `reacquire_after` is 10.
+pub const BURST_SAMPLES: usize = 10;
 
 /// One injected fault.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,13 +62,17 @@ pub enum Fault {
     DriftLoadChannel,
     /// Missing samples.
     Dropout,
+    /// A burst of gross errors of alternating sign.
+    Burst,
+    /// The same burst on the load channel.
+    BurstLoadChannel,
     /// A true step of the load (no sensor fault).
     LoadStep,
 }
 
 impl Fault {
     /// Every fault, in the table's order.
-    pub const ALL: [Fault; 9] = [
+    pub const ALL: [Fault; 11] = [
         Fault::Healthy,
         Fault::Spikes,
         Fault::Saturation,
@@ -72,6 +81,8 @@ impl Fault {
         Fault::StuckLoadChannel,
         Fault::DriftLoadChannel,
         Fault::Dropout,
+        Fault::Burst,
+        Fault::BurstLoadChannel,
         Fault::LoadStep,
     ];
 }
@@ -87,6 +98,8 @@ impl fmt::Display for Fault {
             Fault::StuckLoadChannel => "stuck z2",
             Fault::DriftLoadChannel => "drift z2",
             Fault::Dropout => "dropout",
+            Fault::Burst => "burst",
+            Fault::BurstLoadChannel => "burst z2",
             Fault::LoadStep => "load step",
         })
     }
@@ -161,6 +174,14 @@ pub fn inject(fault: Fault, case: &Case, settings: &Settings) -> Injected {
                 set(k, c, v, z);
             }
         }
+        Fault::Burst | Fault::BurstLoadChannel => {
+            let c = usize::from(fault == Fault::BurstLoadChannel);
+            for (j, k) in (start..start + BURST_SAMPLES).enumerate() {
+                let sign = if j % 2 == 0 { 1.0 } else { -1.0 };
+                let v = z[k][c] + sign * 100.0 * rms[c];
+                set(k, c, v, z);
+            }
+        }
         Fault::Dropout => {
             for k in start..start + samples(1.0) {
                 set(k, 1, f64::NAN, z);
@@ -198,10 +219,16 @@ pub struct FaultRun {
     pub max_error_sigmas: f64,
     /// Correlation of `F̂` with `F` after the first second.
     pub correlation: f64,
-    /// For the load step: seconds from the step until the error stays within 3σ for 0.5 s.
+    /// For the load step: seconds from the step until the error stays within
+    /// 3σ for 0.5 s; for a burst, from its last sample.
     pub recovery: Option<f64>,
+    /// For a burst: the largest `|F̂ − F|` from 0.5 s after it to the end,
+    /// over the RMS error of the 10 s before it (N/N).
+    pub error_after_recovery: Option<f64>,
     /// Re-acquisitions.
     pub reacquisitions: u64,
+    /// Of those, the ones their rival's evidence undid.
+    pub undone: u64,
     /// Why the filter stopped, if it did.
     pub failure: Option<String>,
 }
@@ -240,7 +267,9 @@ pub fn run_with(
         max_error_sigmas: 0.0,
         correlation: f64::NAN,
         recovery: None,
+        error_after_recovery: None,
         reacquisitions: 0,
+        undone: 0,
         failure: None,
     };
     let mut tuning = Tuning::new(settings, measurements.noise_std);
@@ -310,17 +339,29 @@ pub fn run_with(
         return run;
     }
     run.reacquisitions = supervised.supervisor().reacquisitions();
+    run.undone = supervised.supervisor().undone_reacquisitions();
     let after = (1.0 / dt).round() as usize;
     let errors: Vec<f64> = estimate.iter().zip(&truth.load).map(|(e, t)| e - t).collect();
     run.max_error_sigmas = errors[after..].iter().zip(&sigma[after..]).map(|(e, s)| e.abs() / s).fold(0.0, f64::max);
     run.correlation = correlation(&estimate[after..], &truth.load[after..]);
-    if *fault == Fault::LoadStep {
-        let step = (FAULT_START / dt).round() as usize;
-        let hold = (0.5 / dt).round() as usize;
+    let step = (FAULT_START / dt).round() as usize;
+    let hold = (0.5 / dt).round() as usize;
+    let from = match fault {
+        Fault::LoadStep => Some(step),
+        Fault::Burst | Fault::BurstLoadChannel => Some(step + BURST_SAMPLES - 1),
+        _ => None,
+    };
+    if let Some(from) = from {
         let within = |k: usize| errors[k].abs() <= 3.0 * sigma[k];
-        run.recovery = (step..errors.len().saturating_sub(hold))
+        run.recovery = (from..errors.len().saturating_sub(hold))
             .find(|&k| (k..k + hold).all(within))
-            .map(|k| (k - step) as f64 * dt);
+            .map(|k| (k - from) as f64 * dt);
+    }
+    if matches!(fault, Fault::Burst | Fault::BurstLoadChannel) {
+        let before = &errors[step.saturating_sub(10 * (1.0 / dt).round() as usize)..step];
+        let clean_rmse = (before.iter().map(|e| e * e).sum::<f64>() / before.len() as f64).sqrt();
+        let worst = errors[step + BURST_SAMPLES + hold..].iter().fold(0.0_f64, |w, e| w.max(e.abs()));
+        run.error_after_recovery = Some(worst / clean_rmse);
     }
     run
 }

@@ -1,0 +1,223 @@
+//! Revisable re-acquisitions: the belief a re-acquisition set aside is kept
+//! as a rival, predicted and scored against the re-acquired one until the
+//! data decide between them.
+//!
+//! A re-acquisition (`reacquisition.rs`) bets that the state moved: it
+//! inflates the covariance and takes in every row, the failing ones too. A
+//! burst of gross errors long enough to trigger it (S1: ten samples of a
+//! glitching accelerometer) makes that bet wrong, and with two channels
+//! nothing outvotes it: the garbage is in the state, the clean samples that
+//! follow fail the gate, and before this module the estimate never came back.
+//!
+//! So the bet is not final. At a re-acquisition the supervisor also makes
+//! the update the gate alone would have made (the failing rows left out) and
+//! keeps it as the rival. At every later sample the rival is predicted,
+//! gated on its own (a row failing its χ²(1) test is left out) and both
+//! beliefs are scored on the same rows by a robust log-likelihood of their
+//! predictions, each row's `−½(ln Sᵢᵢ + min(νᵢ²/Sᵢᵢ, c))` with `c` the
+//! χ²(1) quantile of `1 − 1e-6`: a row that neither belief explains (the
+//! burst still going) costs both about the same, a row one belief explains
+//! and the other does not moves the evidence by up to `c/2` nats. The first
+//! belief whose lead reaches `c` nats (two rows' worth, odds of about 10⁵)
+//! is kept; at the consistency window's end the one ahead is. The rival
+//! never re-acquires itself and there is one at a time: the belief kept
+//! aside is the one from before the episode.
+//!
+//! * **The rival wins** (the garbage was in): the filter takes the rival's
+//!   belief at this sample, the rows are those of its update, the channel
+//!   that triggered the re-acquisition is suspended (it was the sensor), and
+//!   the consistency window's samples since the fork become the rival's.
+//! * **The re-acquired belief wins** (the state had moved): the rival is
+//!   dropped, nothing else changes.
+//!
+//! The cost is a second predict and update per sample while a rival lives
+//! (at most a window), none otherwise.
+
+use super::consistency::WindowEntry;
+use super::jump::empty_snapshot;
+use super::outcome::{Revision, RowOutcome};
+use super::Supervisor;
+use crate::error::FilterError;
+use crate::filter::{Innovation, Snapshot, StateEstimator};
+
+/// The belief a re-acquisition set aside, while the data decide.
+#[derive(Debug, Clone)]
+pub(super) struct Rival {
+    /// A rival is alive.
+    pub active: bool,
+    /// The channel whose failures triggered the re-acquisition.
+    pub trigger: usize,
+    /// The evidence so far for the rival over the re-acquired belief (nats).
+    pub evidence: f64,
+    /// The rival's belief after its last committed update.
+    pub belief: Snapshot,
+    /// Its consistency-window entries since the fork, oldest first (at most a window).
+    pub entries: Vec<WindowEntry>,
+}
+
+impl Rival {
+    /// None, for a window of `window` samples.
+    pub fn new(window: usize) -> Self {
+        Self { active: false, trigger: 0, evidence: 0.0, belief: empty_snapshot(), entries: Vec::with_capacity(window) }
+    }
+}
+
+/// The robust log-likelihood of an update's predictions on its rows (see the
+/// module documentation); the rows' clipped normalised innovations are
+/// summed into `clipped` at the gate's own clip.
+pub(super) fn score(innovation: &Innovation, clip: f64, gate_clip: f64, clipped: &mut f64) -> f64 {
+    let mut score = 0.0;
+    for &r in innovation.rows() {
+        let variance = innovation.covariance()[(r, r)];
+        let ratio = innovation.residual()[r].powi(2) / variance;
+        let ratio = if ratio.is_nan() { f64::INFINITY } else { ratio };
+        score -= 0.5 * (crate::math::ln(variance) + ratio.min(clip));
+        *clipped += ratio.min(gate_clip);
+    }
+    score
+}
+
+impl Supervisor {
+    /// Keeps, at a re-acquisition, the update the gate would have made
+    /// instead (the rows `failing` selects left out) as the rival to be;
+    /// leaves the filter at `before`. Without a rival (one is alive, or the
+    /// update fails) the re-acquisition is simply final.
+    pub(super) fn fork_rival(
+        &mut self,
+        filter: &mut dyn StateEstimator,
+        failing: impl Fn(usize, f64) -> bool,
+    ) -> Result<(), FilterError> {
+        if !self.settings.revise || self.rival.active {
+            return Ok(());
+        }
+        let work = &mut self.work;
+        work.z_hypothesis.copy_from_slice(&work.z_gated);
+        for &r in &work.rows {
+            if failing(r, work.ratios[r]) {
+                work.z_hypothesis[r] = f64::NAN;
+            }
+        }
+        filter.restore(&work.before)?;
+        if filter.update(&work.z_hypothesis).is_ok() {
+            filter.snapshot_into(&mut work.rival_next);
+            self.pending.forked = true;
+        }
+        filter.restore(&self.work.before)
+    }
+
+    /// Predicts the rival to this sample and makes its gated update into
+    /// `work.rival_next`, scoring it (`work.rival_score`, `work.rival_entry`);
+    /// leaves the filter at `before`. `false` when it cannot be predicted or
+    /// updated: it is then dropped.
+    pub(super) fn step_rival(&mut self, filter: &mut dyn StateEstimator) -> Result<bool, FilterError> {
+        let (clip, row) = (self.thresholds.adaptation_clip, self.thresholds.row);
+        let gate_clip = row.min(1e6);
+        let work = &mut self.work;
+        let belief = &self.rival.belief;
+        let dt = work.before.time - belief.time;
+        let first = |filter: &mut dyn StateEstimator, predicted: &mut Snapshot| {
+            filter
+                .restore(belief)
+                .and_then(|()| if dt > 0.0 { filter.predict(&belief.input, dt) } else { Ok(()) })
+                .and_then(|()| filter.hold_input(&work.before.input))
+                .map(|()| filter.snapshot_into(predicted))
+                .and_then(|()| filter.update(&work.z_gated).map(|_| ()))
+        };
+        if first(filter, &mut work.alternative).is_err() {
+            filter.restore(&work.before)?;
+            return Ok(false);
+        }
+        let innovation = filter.innovation();
+        let mut clipped = 0.0;
+        work.rival_score = score(innovation, clip, gate_clip, &mut clipped);
+        work.rival_entry = WindowEntry { clipped_ratios: clipped, rows: innovation.rows_used() };
+        // Its own gate: the rows failing their χ²(1) test are left out.
+        work.z_hypothesis.copy_from_slice(&work.z_gated);
+        work.rival_rows.copy_from_slice(&self.pending.rows);
+        let mut left_out = false;
+        for &r in innovation.rows() {
+            let ratio = innovation.residual()[r].powi(2) / innovation.covariance()[(r, r)];
+            if ratio > row || ratio.is_nan() {
+                work.z_hypothesis[r] = f64::NAN;
+                work.rival_rows[r] = RowOutcome::Rejected;
+                left_out = true;
+            }
+        }
+        let updated = if left_out {
+            filter.restore(&work.alternative).and_then(|()| filter.update(&work.z_hypothesis).map(|_| ()))
+        } else {
+            Ok(())
+        };
+        if updated.is_err() {
+            filter.restore(&work.before)?;
+            return Ok(false);
+        }
+        let innovation = filter.innovation();
+        work.rival_update = (innovation.nis(), innovation.rows_used());
+        filter.snapshot_into(&mut work.rival_next);
+        filter.restore(&work.before)?;
+        Ok(true)
+    }
+
+    /// Weighs this sample's evidence (the main belief's score from its first
+    /// pass) and, when it decides for the rival, puts the rival's update on
+    /// the filter and in the outcome.
+    pub(super) fn weigh_rival(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        let delta = self.work.rival_score - self.work.main_score;
+        let evidence = self.rival.evidence + delta;
+        let threshold = self.thresholds.adaptation_clip;
+        let horizon = self.rival.entries.len() + 1 >= self.settings.window;
+        self.pending.revision = if evidence >= threshold || (horizon && evidence > 0.0) {
+            Revision::Undone
+        } else if evidence <= -threshold || horizon {
+            Revision::Confirmed
+        } else {
+            Revision::Weighed(delta)
+        };
+        if self.pending.revision != Revision::Undone {
+            return Ok(());
+        }
+        filter.restore(&self.work.rival_next)?;
+        let pending = &mut self.pending;
+        pending.rows.copy_from_slice(&self.work.rival_rows);
+        (pending.nis, pending.dof) = self.work.rival_update;
+        (pending.clipped_ratios, pending.gated_rows) =
+            (self.work.rival_entry.clipped_ratios, self.work.rival_entry.rows);
+        pending.reacquired = None;
+        pending.inflation = 1.0;
+        pending.jump = 0.0;
+        pending.ambiguous = false;
+        pending.explained.fill(false);
+        pending.steps.fill(0.0);
+        Ok(())
+    }
+
+    /// Counts the pending outcome's fork or revision (before the consistency
+    /// window takes the sample).
+    pub(super) fn commit_rival(&mut self) {
+        if self.pending.forked {
+            self.rival.active = true;
+            self.rival.trigger = self.pending.reacquired.unwrap_or(0);
+            self.rival.evidence = 0.0;
+            self.rival.entries.clear();
+            std::mem::swap(&mut self.rival.belief, &mut self.work.rival_next);
+            return;
+        }
+        match self.pending.revision {
+            Revision::None => {}
+            Revision::Weighed(delta) => {
+                self.rival.evidence += delta;
+                self.rival.entries.push(self.work.rival_entry);
+                std::mem::swap(&mut self.rival.belief, &mut self.work.rival_next);
+            }
+            Revision::Confirmed => self.rival.active = false,
+            Revision::Undone => {
+                self.rival.active = false;
+                self.window.replace_latest(&self.rival.entries);
+                self.channels[self.rival.trigger].suspended = true;
+                self.review.active = false;
+                self.reacquisition.undone = self.reacquisition.undone.saturating_add(1);
+            }
+        }
+    }
+}
