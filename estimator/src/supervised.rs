@@ -68,6 +68,12 @@ pub enum Event {
         /// The sample's instant (s).
         time: f64,
     },
+    /// The filter had used no row for a whole window and restarted from where
+    /// its states had been while it was healthy (`restart.rs`).
+    Restarted {
+        /// The sample's instant (s).
+        time: f64,
+    },
     /// The filter became inconsistent (`false`) or consistent again (`true`).
     Consistent {
         /// The new consistency flag.
@@ -422,6 +428,9 @@ impl SupervisedFilter {
             self.events.push(Event::Reacquired { channel, time });
         }
         let undone = self.supervisor.pending().revision == crate::supervisor::Revision::Undone;
+        if self.supervisor.pending().restarted {
+            self.events.push(Event::Restarted { time });
+        }
         let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());
         let events = &mut self.events;
         self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));

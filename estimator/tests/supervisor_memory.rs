@@ -24,7 +24,7 @@ const CHANNEL: [&str; 11] = [
     "step_multiple",
     "step_run",
 ];
-const REACQUISITION: [&str; 5] = ["lost_run", "count", "since_last", "inflation", "undone"];
+const REACQUISITION: [&str; 6] = ["lost_run", "count", "since_last", "inflation", "undone", "restarts"];
 const CURSOR: [&str; 2] = ["next", "filled"];
 const WINDOW_ENTRY: [&str; 2] = ["clipped_ratios", "rows"];
 const RIVAL_HEADER: [&str; 8] = ["active", "trigger", "evidence", "entries", "kind", "time", "inputs", "states"];
@@ -118,10 +118,13 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     assert_eq!(words[header_word("window")], 50);
     // After the window's entries: the adaptation (2 words), the jump counts (2),
     // the review's header (5) and a flag per channel, the rival's header and its
-    // window of entries; no belief, with no jump under review and no rival.
+    // window of entries, the climate's header (2) and its means, variances and
+    // mean filter variances of the 4 states; no belief, with no jump under review and no rival.
     let tail = entry_word(3, 50, "clipped_ratios");
     let rival = tail + 2 + 2 + 5 + 3;
-    assert_eq!(words.len(), rival + RIVAL_HEADER.len() + 50 * WINDOW_ENTRY.len(), "the rival's entries end the memory");
+    let climate = rival + RIVAL_HEADER.len() + 50 * WINDOW_ENTRY.len();
+    assert_eq!(words.len(), climate + 2 + 3 * 4, "the climate ends the memory");
+    assert_eq!(words[climate + 1], 4, "the climate of 4 states");
     assert_eq!(words[rival + position(&RIVAL_HEADER, "active")], 0, "the fixed supervisor keeps no rival");
     assert_eq!(f64::from_bits(words[tail]), 0.0, "ln of the process-noise scale: not adapted");
     // The named fields hold what the supervisor reports.

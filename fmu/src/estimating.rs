@@ -359,6 +359,11 @@ impl Estimating {
                     "logStatusWarning",
                     format!("the re-acquisition triggered by input {} is undone at t = {time} s: the belief that left that input out explains the samples since better, so it was the sensor; the outputs are that belief's", input(channel)),
                 ),
+                Event::Restarted { time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("the filter restarted at t = {time} s: no input had passed the gate for consistency_window samples; it starts again from where its states have been while it was healthy"),
+                ),
                 Event::Consistent { consistent: false, time } => (
                     Fmi2Status::Warning,
                     "logStatusWarning",
@@ -565,7 +570,15 @@ pub fn build_filter(
 
 /// Builds the supervisor an instance with these parameter values runs over a filter of
 /// `state_dim` states: the gate, the fault flags, the jumps and the adaptation as set.
-pub fn build_supervisor(descriptor: &Descriptor, values: &[f64], state_dim: usize) -> Result<Supervisor, String> {
+/// `prior` is the instance's filter at the start, whose prior gives the plausible range
+/// (`plausibility.rs`) where the estimator's parameters do not.
+pub fn build_supervisor(
+    descriptor: &Descriptor,
+    values: &[f64],
+    prior: &dyn StateEstimator,
+) -> Result<Supervisor, String> {
+    let state_dim = prior.state_dim();
+    let plausible = PlausibleRange::new(descriptor, values, prior)?;
     let p = Parameters::new(&descriptor.variables, values);
     let count = |name: &str| -> Result<u32, String> { Ok(p.get(name)? as u32) };
     let settings = SupervisorSettings {
@@ -584,6 +597,7 @@ pub fn build_supervisor(descriptor: &Descriptor, values: &[f64], state_dim: usiz
     };
     let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())
         .and_then(|s| s.with_jump_states(state_dim, descriptor.unknown_inputs))
+        .and_then(|s| s.with_plausible_range(state_dim, plausible.bounds()))
         .map_err(|e| e.to_string())?;
     if let Some(steps) = (descriptor.build_steps)(&p)? {
         supervisor = supervisor.with_steps(steps).map_err(|e| e.to_string())?;
@@ -605,7 +619,7 @@ pub(crate) fn build_estimation(
     let sample_time = p.positive("sample_time")?;
     let filter = build_filter(descriptor, values, start_time)?;
     let n = filter.state_dim();
-    let supervisor = build_supervisor(descriptor, values, n)?;
+    let supervisor = build_supervisor(descriptor, values, filter.as_ref())?;
     let reader = build_filter(descriptor, values, start_time)?;
     if filter.snapshot().input.len() != controls.len() {
         return Err(format!(

@@ -285,7 +285,8 @@ impl Instance {
             Behaviour::Estimator(e) => e.do_step(&mut self.shell, t, h),
             Behaviour::Plant(p) => p.do_step(&mut self.shell, t, h),
         };
-        if status == Fmi2Status::Ok {
+        // A warning (a lost filter: `plausibility.rs`) is a step made.
+        if matches!(status, Fmi2Status::Ok | Fmi2Status::Warning) {
             self.shell.time = t + h;
             self.shell.last_successful_time = t + h;
         }

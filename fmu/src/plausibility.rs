@@ -27,8 +27,12 @@ use crate::variables::{Parameters, Role, Variable};
 /// How many prior σ from the prior mean an unknown input may plausibly be.
 pub const PRIOR_SIGMAS: f64 = 1e3;
 
-/// How far below its prior spread a measurement's noise σ may be: six decades.
-pub const NOISE_FLOOR: f64 = 1e-6;
+/// How far below its prior spread a measurement's noise σ may be: nine
+/// decades. A prior is often wide (S3's 0.1 m on every position spreads a
+/// bogie accelerometer over 350 m/s², where a quiet twist measures 1e-4 m/s²
+/// of noise: six decades below), so the floor catches typos of many decades
+/// (2e-13 for 2e-3: fifteen), not honest quiet sensors.
+pub const NOISE_FLOOR: f64 = 1e-9;
 
 /// The plausible range of each unknown input, from the prior.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,6 +75,11 @@ impl PlausibleRange {
         Ok(Self { bounds })
     }
 
+    /// `(state, centre, bound)` per bounded state, as the supervisor takes them.
+    pub fn bounds(&self) -> &[(usize, f64, f64)] {
+        &self.bounds
+    }
+
     /// The first state of `belief` outside its range, if any.
     pub fn check(&self, belief: &dyn StateEstimator) -> Option<Implausible> {
         self.bounds.iter().find_map(|&(state, centre, bound)| {
@@ -101,7 +110,7 @@ pub fn check_noise(descriptor: &Descriptor, filter: &mut dyn StateEstimator) -> 
         let unit = input.and_then(|v| v.unit).unwrap_or("");
         let parameter = noise_parameter(&descriptor.variables, &name);
         return Err(format!(
-            "{parameter} = {std:e} {unit} is more than six decades below the spread of {name} under the \
+            "{parameter} = {std:e} {unit} is more than nine decades below the spread of {name} under the \
              prior ({spread:.3e} {unit}): no sensor is that precise, and a filter told so diverges (a typo?)"
         ));
     }

@@ -113,7 +113,12 @@ fn a_true_load_step_of_ten_times_the_rms_is_never_rejected_and_followed_at_once(
 fn a_burst_that_re_acquires_is_undone_and_the_load_is_back_at_once() {
     for (fault, undone) in [(Fault::Burst, 1), (Fault::BurstLoadChannel, 0)] {
         for r in runs(fault) {
-            assert_eq!((r.false_rejections, r.unhealthy_samples, r.undone), (0, 0, undone), "{fault} {}: {r:?}", r.kind);
+            assert_eq!(
+                (r.false_rejections, r.unhealthy_samples, r.undone),
+                (0, 0, undone),
+                "{fault} {}: {r:?}",
+                r.kind
+            );
             assert!(r.corrupted_rejected.0 >= 9, "{fault} {}: {r:?}", r.kind);
             assert!(r.recovery.is_some_and(|t| t <= 0.01), "{fault} {}: {r:?}", r.kind);
             // The largest error after the burst is that of clean data: about 3.4× the RMS error.

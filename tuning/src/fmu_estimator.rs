@@ -181,7 +181,7 @@ impl FmuEstimator {
     pub fn supervised(&self, fitted: &[f64], start_time: f64) -> Result<SupervisedFilter, String> {
         let values = self.values_with(fitted);
         let filter = estimating::build_filter(&self.descriptor, &values, start_time)?;
-        let supervisor = estimating::build_supervisor(&self.descriptor, &values, filter.state_dim())?;
+        let supervisor = estimating::build_supervisor(&self.descriptor, &values, filter.as_ref())?;
         SupervisedFilter::new(filter, supervisor).map_err(|e| e.to_string())
     }
 

@@ -107,6 +107,10 @@ pub(super) struct Workspace {
     /// The robust log-likelihoods of this sample's first pass: the rival's and the filter's own.
     pub rival_score: f64,
     pub main_score: f64,
+    /// The mean the update ends with (what a healthy sample teaches `restart.rs`).
+    pub posterior: Vec<f64>,
+    /// Its variance per state.
+    pub posterior_variance: Vec<f64>,
 }
 
 impl Workspace {
@@ -134,6 +138,8 @@ impl Workspace {
             rival_entry: WindowEntry::default(),
             rival_score: 0.0,
             main_score: 0.0,
+            posterior: Vec::new(),
+            posterior_variance: Vec::new(),
         }
     }
 
@@ -209,7 +215,10 @@ impl Supervisor {
         filter.snapshot_into(&mut self.work.before);
         self.reserve_beliefs();
         self.review(filter)?;
-        let rival = self.rival.active && self.settings.revise && self.step_rival(filter)?;
+        if self.restart_due(filter) {
+            self.restart(filter)?;
+        }
+        let rival = !self.pending.restarted && self.rival.active && self.settings.revise && self.step_rival(filter)?;
         if self.rival.active && !rival {
             // A rival that cannot be predicted or updated is dropped.
             self.pending.revision = Revision::Confirmed;
@@ -251,6 +260,10 @@ impl Supervisor {
         if rival {
             self.weigh_rival(filter)?;
         }
+        self.work.posterior.clear();
+        self.work.posterior.extend_from_slice(filter.mean().as_slice());
+        self.work.posterior_variance.clear();
+        self.work.posterior_variance.extend((0..filter.state_dim()).map(|i| filter.variance(i)));
         self.gather_adaptation_evidence();
         Ok(&self.pending)
     }
@@ -258,6 +271,10 @@ impl Supervisor {
     /// Gives the belief buffers their size at the first gate, so that no
     /// later one allocates (a jump, a review copy beliefs).
     fn reserve_beliefs(&mut self) {
+        let n = self.work.before.mean.len();
+        self.climate.reserve(n);
+        self.work.posterior.reserve(n.saturating_sub(self.work.posterior.len()));
+        self.work.posterior_variance.reserve(n.saturating_sub(self.work.posterior_variance.len()));
         let before = &self.work.before;
         let beliefs = [
             &mut self.work.hypothesis,
@@ -332,6 +349,7 @@ impl Supervisor {
         pending.retracted.fill(false);
         pending.forked = false;
         pending.revision = Revision::None;
+        pending.restarted = false;
         self.work.main_score = 0.0;
         self.work.residuals.fill(f64::NAN);
         self.work.first_ratios.fill(f64::NAN);

@@ -9,7 +9,7 @@
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
 //!                 suspended, last_value, repeats, step_multiple, step_run
-//! Reacquisition   lost_run, count, since_last, inflation, undone
+//! Reacquisition   lost_run, count, since_last, inflation, undone, restarts
 //! Cursor          next, filled
 //! WindowEntry × w clipped_ratios, rows
 //! Adaptation      log_scale, mean_ratio
@@ -18,9 +18,11 @@
 //! ReviewRow × m   explained
 //! RivalHeader     active, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
+//! ClimateHeader   learnt, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
 //! jump's), then the rival's: each its inputs, states means and states²
-//! covariance words
+//! covariance words; then the climate's states means, states variances and
+//! states mean variances of the filter
 //! ```
 //!
 //! The `record!` lines below are that table: a record's words are its fields
@@ -197,6 +199,13 @@ struct RivalHeader {
     states: usize,
 }
 
+/// Where the states have been (`restart.rs`): how much was learnt, for how many states.
+struct ClimateHeader {
+    learnt: u64,
+    states: usize,
+}
+
+record!(ClimateHeader { learnt, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
 record!(RivalHeader { active, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
@@ -215,7 +224,7 @@ record!(Channel {
     step_multiple,
     step_run,
 });
-record!(Reacquisition { lost_run, count, since_last, inflation, undone });
+record!(Reacquisition { lost_run, count, since_last, inflation, undone, restarts });
 record!(Cursor { next, filled });
 record!(WindowEntry { clipped_ratios, rows });
 
@@ -250,6 +259,7 @@ impl Supervisor {
             + m * ReviewRow::WORDS
             + RivalHeader::WORDS
             + w * WindowEntry::WORDS
+            + ClimateHeader::WORDS
     }
 
     /// The review's header as saved: the belief only while a jump awaits review.
@@ -317,6 +327,7 @@ impl Supervisor {
             let entry = if rival.active { self.rival.entries.get(k).copied() } else { None };
             entry.unwrap_or_default().save(out);
         }
+        ClimateHeader { learnt: self.climate.learnt, states: self.climate.mean.len() }.save(out);
         if review.active {
             for belief in [&self.review.hypothesis, &self.review.jumped] {
                 for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
@@ -329,6 +340,9 @@ impl Supervisor {
             for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
                 out.push(v.to_bits());
             }
+        }
+        for v in self.climate.mean.iter().chain(&self.climate.variance).chain(&self.climate.doubt) {
+            out.push(v.to_bits());
         }
     }
 
@@ -365,13 +379,16 @@ impl Supervisor {
         if words.len() < fixed {
             return Err(invalid(format!("{} words, its header says {fixed}", words.len())));
         }
-        let rival_at = fixed - RivalHeader::WORDS - w * WindowEntry::WORDS;
+        let climate_at = fixed - ClimateHeader::WORDS;
+        let climate = ClimateHeader::load(&words[climate_at..fixed], "the climate")?;
+        let rival_at = climate_at - RivalHeader::WORDS - w * WindowEntry::WORDS;
         let review_at = rival_at - ReviewHeader::WORDS - m * ReviewRow::WORDS;
         let review = ReviewHeader::load(&words[review_at..review_at + ReviewHeader::WORDS], "the review")?;
         let rival = RivalHeader::load(&words[rival_at..rival_at + RivalHeader::WORDS], "the rival")?;
         let belief_words = 2 * (review.inputs + review.states + review.states * review.states);
         let rival_words = rival.inputs + rival.states + rival.states * rival.states;
-        let expected = fixed + belief_words + rival_words;
+        let climate_words = 3 * climate.states;
+        let expected = fixed + belief_words + rival_words + climate_words;
         if words.len() != expected {
             return Err(invalid(format!("{} words, its header says {expected}", words.len())));
         }
@@ -460,8 +477,18 @@ impl Supervisor {
             }
             rival_entries.push(entry);
         }
-        let floats: Vec<f64> = words[at..].iter().map(|w| f64::from_bits(*w)).collect();
-        let (review_floats, rival_floats) = floats.split_at(belief_words);
+        let floats: Vec<f64> = words[at + ClimateHeader::WORDS..].iter().map(|w| f64::from_bits(*w)).collect();
+        let (review_floats, rest) = floats.split_at(belief_words);
+        let (rival_floats, climate_floats) = rest.split_at(rival_words);
+        let (climate_mean, climate_variances) = climate_floats.split_at(climate.states);
+        let (climate_variance, climate_doubt) = climate_variances.split_at(climate.states);
+        if climate_mean.iter().any(|v| !v.is_finite())
+            || climate_variances.iter().any(|v| !(*v >= 0.0 && v.is_finite()))
+        {
+            return Err(invalid(
+                "the climate holds a mean that is not finite or a variance that is not a variance".into(),
+            ));
+        }
         let (hypothesis, jumped) = review_floats.split_at(belief_words / 2);
 
         self.channels = channels;
@@ -497,6 +524,15 @@ impl Supervisor {
                 to.clear();
                 to.extend_from_slice(from);
             }
+        }
+        self.climate.learnt = climate.learnt;
+        for (to, from) in [
+            (&mut self.climate.mean, climate_mean),
+            (&mut self.climate.variance, climate_variance),
+            (&mut self.climate.doubt, climate_doubt),
+        ] {
+            to.clear();
+            to.extend_from_slice(from);
         }
         self.reacquisition = reacquisition;
         self.window.restore(cursor, &entries);

@@ -17,6 +17,8 @@
 //!   is kept beside a re-acquisition as its rival, and the next samples'
 //!   data decide which belief stays: a burst of gross errors taken in is
 //!   undone.
+//! * **Restart** (`restart.rs`): a filter that has used no row for a whole
+//!   window starts again from where its states have been while it was healthy.
 //! * **Quantised bias steps** (optional, [`Supervisor::with_steps`],
 //!   `steps.rs`): a bias that jumps by a known quantum is taken into its bias
 //!   state instead of inflating every state.
@@ -43,6 +45,7 @@ mod jump;
 mod memory;
 mod outcome;
 mod reacquisition;
+mod restart;
 mod rival;
 mod settings;
 mod smoothing_prior;
@@ -58,6 +61,7 @@ use consistency::{ConsistencyWindow, WindowEntry};
 use gate::{Thresholds, Workspace};
 use jump::{Jumps, Review};
 use reacquisition::Reacquisition;
+use restart::Climate;
 use rival::Rival;
 
 use crate::error::FilterError;
@@ -80,6 +84,10 @@ pub struct Supervisor {
     jumps: Jumps,
     review: Review,
     rival: Rival,
+    climate: Climate,
+    /// `(state, centre, bound)`: a belief with `|x̂ − centre|` or σ above the
+    /// bound, or not finite, is lost and restarts (`restart.rs`).
+    plausible: Vec<(usize, f64, f64)>,
     // The pending sample.
     pending: Outcome,
     /// The measurement of the pending outcome, as offered.
@@ -103,6 +111,8 @@ impl Supervisor {
             jumps: Jumps::default(),
             review: Review::new(m),
             rival: Rival::new(settings.window),
+            climate: Climate::new(),
+            plausible: Vec::new(),
             pending: Outcome::none(m),
             z_offered: vec![f64::NAN; m],
             work: Workspace::new(m),
@@ -126,6 +136,32 @@ impl Supervisor {
         }
         self.jump_states = (0..n).map(|i| states.contains(&i)).collect();
         Ok(self)
+    }
+
+    /// With a plausible range of some states of an `n`-state model, each
+    /// `(state, centre, bound)`: a belief whose estimate of one of them is
+    /// further than `bound` from `centre`, or whose σ is above `bound`, or
+    /// that is not finite, has lost the state, and restarts (`restart.rs`)
+    /// once it has learnt where the states go. Without this call only a
+    /// window without any row used makes the filter restart.
+    pub fn with_plausible_range(mut self, n: usize, bounds: &[(usize, f64, f64)]) -> Result<Self, FilterError> {
+        if let Some(&(i, centre, bound)) =
+            bounds.iter().find(|(i, centre, bound)| *i >= n || !centre.is_finite() || bound.is_nan() || *bound <= 0.0)
+        {
+            return Err(FilterError::InvalidSetting(format!(
+                "plausible range of state {i} ({centre} ± {bound}) for an {n}-state model"
+            )));
+        }
+        self.plausible = bounds.to_vec();
+        Ok(self)
+    }
+
+    /// Whether `filter`'s belief is inside its plausible range ([`Supervisor::with_plausible_range`]).
+    pub fn plausible(&self, filter: &dyn StateEstimator) -> bool {
+        self.plausible.iter().all(|&(i, centre, bound)| {
+            let (x, std) = (filter.mean()[i], filter.variance(i).max(0.0).sqrt());
+            (x - centre).abs() <= bound && std <= bound
+        })
     }
 
     /// The settings.
@@ -187,6 +223,11 @@ impl Supervisor {
     /// The channel whose re-acquisition the rival stands against, or last stood against.
     pub fn undone_trigger(&self) -> Option<usize> {
         (self.reacquisition.undone > 0 || self.rival.active).then_some(self.rival.trigger)
+    }
+
+    /// Restarts so far (`restart.rs`).
+    pub fn restarts(&self) -> u64 {
+        self.reacquisition.restarts
     }
 
     /// A re-acquisition's rival is being weighed against it (`rival.rs`).
@@ -266,6 +307,7 @@ impl Supervisor {
         }
         self.reacquisition.count(outcome, self.settings.max_inflation);
         self.commit_rival();
+        self.commit_restart();
         let outcome = &self.pending;
         self.window.push(WindowEntry { clipped_ratios: outcome.clipped_ratios, rows: outcome.gated_rows });
         if outcome.retracted.contains(&true) {

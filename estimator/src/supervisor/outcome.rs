@@ -76,6 +76,8 @@ pub struct Outcome {
     pub forked: bool,
     /// What became of the rival of an earlier re-acquisition.
     pub revision: Revision,
+    /// The filter restarted at this sample (`restart.rs`) before its update.
+    pub restarted: bool,
     /// Per row: the multiple its rejected innovations sit at and how many in
     /// a row, for the channel to remember at the commit.
     pub(super) watch: Vec<(i64, u32)>,
@@ -104,6 +106,7 @@ impl Outcome {
             adaptation_rows: 0,
             forked: false,
             revision: Revision::None,
+            restarted: false,
             watch: vec![(0, 0); m],
         }
     }

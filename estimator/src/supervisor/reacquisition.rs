@@ -49,12 +49,14 @@ pub(super) struct Reacquisition {
     pub inflation: f64,
     /// Re-acquisitions their rival's evidence undid (`rival.rs`).
     pub undone: u64,
+    /// Restarts (`restart.rs`).
+    pub restarts: u64,
 }
 
 impl Reacquisition {
     /// Before the first sample.
     pub fn new() -> Self {
-        Self { lost_run: 0, count: 0, since_last: u32::MAX, inflation: 1.0, undone: 0 }
+        Self { lost_run: 0, count: 0, since_last: u32::MAX, inflation: 1.0, undone: 0, restarts: 0 }
     }
 
     /// Whether a failing pass calls for a re-acquisition, and if so the

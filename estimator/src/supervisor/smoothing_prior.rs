@@ -13,6 +13,8 @@
 //! - an undone re-acquisition (`rival.rs`) put the rival's belief in place of
 //!   the update of the prediction: the link is cut (the covariance scaled by
 //!   [`CUT`]), so that nothing of the re-acquired belief is carried back;
+//! - a restart (`restart.rs`) put a belief from the states' history in its
+//!   place: cut too;
 //! - a bias step moved its bias state's mean by the step, which is known to
 //!   have been taken, so the prediction takes it too.
 //!
@@ -40,7 +42,7 @@ impl Supervisor {
         if outcome.reacquired.is_some() {
             *covariance *= outcome.inflation;
         }
-        if outcome.revision == Revision::Undone {
+        if outcome.revision == Revision::Undone || outcome.restarted {
             *covariance *= CUT;
         }
         if outcome.jump > 0.0 {
