@@ -35,6 +35,8 @@ enum Command {
     S1Sweep(studies::s1::sweep::Args),
     /// Study S1 with gross measurement errors injected, every filter behind the supervisor.
     S1Faults(studies::s1::fault_table::Args),
+    /// Every estimator FMU through random fault episodes: recovery, error after, false flags, health.
+    Robustness(studies::robustness::Args),
     /// Study S2 across speeds, vehicle-parameter errors, sampling rates and track seeds.
     S2Sweep(studies::s2::sweep::Args),
     /// Study S3 across speeds, the user's car-body mass, roll inertia and primary stiffness, rates and seeds.
@@ -65,6 +67,7 @@ fn main() -> ExitCode {
         Command::Reproduce(args) => reproduce::run(args),
         Command::S1Sweep(args) => studies::s1::sweep::run(args),
         Command::S1Faults(args) => studies::s1::fault_table::run_command(args),
+        Command::Robustness(args) => studies::robustness::run_command(args),
         Command::S2Sweep(args) => studies::s2::sweep::run(args),
         Command::S3Sweep(args) => studies::s3::sweep::run(args),
         Command::S4Compare(args) => studies::s4::compare::run(args),

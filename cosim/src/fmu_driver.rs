@@ -223,6 +223,21 @@ impl Instance {
         Ok(())
     }
 
+    /// Reads `outputs` into `values` as they are, non-finite ones too (a
+    /// study of faults reads what a lost filter shows).
+    pub fn read_as_is(&mut self, outputs: &[u32], values: &mut [f64]) -> anyhow::Result<()> {
+        Common::get_real(&mut self.cs, outputs, values)
+            .map(|_| ())
+            .map_err(|e| anyhow!("fmi2GetReal at t = {}: {e}", self.time))
+    }
+
+    /// Reads the Boolean `outputs` into `values` (fmi2Boolean: 0 false, else true).
+    pub fn read_booleans(&mut self, outputs: &[u32], values: &mut [i32]) -> anyhow::Result<()> {
+        Common::get_boolean(&mut self.cs, outputs, values)
+            .map(|_| ())
+            .map_err(|e| anyhow!("fmi2GetBoolean at t = {}: {e}", self.time))
+    }
+
     /// Reads the Integer `outputs` into `values`.
     pub fn read_integers(&mut self, outputs: &[u32], values: &mut [i32]) -> anyhow::Result<()> {
         Common::get_integer(&mut self.cs, outputs, values)
@@ -230,11 +245,12 @@ impl Instance {
             .map_err(|e| anyhow!("fmi2GetInteger at t = {}: {e}", self.time))
     }
 
-    /// `fmi2DoStep(t, h)` from the current communication point.
-    pub fn do_step(&mut self, h: f64) -> anyhow::Result<()> {
-        self.cs.do_step(self.time, h, true).map_err(|e| anyhow!("fmi2DoStep at t = {}: {e}", self.time))?;
+    /// `fmi2DoStep(t, h)` from the current communication point; whether the
+    /// FMU returned fmi2Warning (a step made, with something to say: a lost filter).
+    pub fn do_step(&mut self, h: f64) -> anyhow::Result<bool> {
+        let res = self.cs.do_step(self.time, h, true).map_err(|e| anyhow!("fmi2DoStep at t = {}: {e}", self.time))?;
         self.time += h;
-        Ok(())
+        Ok(matches!(res, fmi::fmi2::Fmi2Res::Warning))
     }
 
     /// `fmi2Terminate`.

@@ -5,6 +5,7 @@
 //! share is [`comparison`] and [`shard`].
 
 pub mod comparison;
+pub mod robustness;
 pub mod s1;
 pub mod s2;
 pub mod s3;

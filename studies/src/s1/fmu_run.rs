@@ -40,7 +40,7 @@ const OUTPUTS: [&str; 13] = [
 
 /// The FMU's Real parameters of a case: the paper's chain, the sample time and the
 /// study's one tuning.
-pub(super) fn parameters(tuning: &Tuning, case: &Case, settings: &Settings) -> Vec<(&'static str, f64)> {
+pub(crate) fn parameters(tuning: &Tuning, case: &Case, settings: &Settings) -> Vec<(&'static str, f64)> {
     let mut p = truth::s1::chain_parameters(&case.chain()).to_vec();
     p.push(("sample_time", settings.dt()));
     p.push(("smoothing_lag", crate::smoothed::SMOOTHING_LAG));
