@@ -55,11 +55,11 @@ def whole(kalfmu_bin, fmu_dir) -> str:
 
 def test_every_fmu_has_its_table_and_its_clean_run_raises_no_alarm(whole):
     found = tables(whole)
-    assert set(found) == {"S1", "S2", "S3"}, whole
+    assert set(found) == {"S1", "S2", "S3", "S4", "S5"}, whole
     for study, rows in found.items():
         assert sum(n for _, n in rows.values()) == EPISODES, (study, rows)
     clean = re.findall(r"clean run: (\d+) samples flagged faulty, (\d+) not healthy", whole)
-    assert clean == [("0", "0")] * 3, whole
+    assert clean == [("0", "0")] * 5, whole
 
 
 def test_stuck_inputs_and_dropouts_are_recovered_from_within_the_bound(whole):

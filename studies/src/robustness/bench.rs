@@ -48,6 +48,8 @@ pub struct Trace {
     pub faulty: Vec<Vec<bool>>,
     /// Steps the FMU answered with fmi2Warning (a lost filter).
     pub warnings: usize,
+    /// The step the FMU refused (fmi2Discard: its filter failed), which ends the run.
+    pub failure: Option<String>,
 }
 
 impl Bench {
@@ -97,6 +99,7 @@ impl Bench {
             healthy: Vec::with_capacity(samples),
             faulty: Vec::with_capacity(samples),
             warnings: 0,
+            failure: None,
         };
         let (mut values, mut flags, mut healthy) = (vec![0.0; 2 * n], vec![0; self.inputs.len()], [0]);
         for k in 0..samples {
@@ -109,7 +112,13 @@ impl Bench {
             trace.faulty.push(flags.iter().map(|&f| f != 0).collect());
             trace.healthy.push(healthy[0] != 0);
             if k + 1 < samples {
-                trace.warnings += usize::from(instance.do_step(self.dt)?);
+                match instance.do_step(self.dt) {
+                    Ok(warned) => trace.warnings += usize::from(warned),
+                    Err(e) => {
+                        trace.failure = Some(e.to_string());
+                        return Ok(trace);
+                    }
+                }
             }
         }
         instance.terminate()?;
@@ -134,6 +143,8 @@ pub struct Verdict {
     pub judged: usize,
     /// Steps answered with fmi2Warning.
     pub warnings: usize,
+    /// The FMU refused a step (its filter failed): the run ended there.
+    pub failed: bool,
 }
 
 /// Each sample's error over the scored estimates: the RMS over the targets
@@ -177,6 +188,7 @@ pub fn judge(
     window: usize,
     horizon: usize,
 ) -> Verdict {
+    let failed = faulty.failure.is_some() && faulty.estimate.len() < horizon;
     let horizon = horizon.min(faulty.estimate.len());
     let (e_clean, e_fault) = (errors(clean, &bench.truth, scale), errors(faulty, &bench.truth, scale));
     let rms = |e: &[f64]| (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt();
@@ -184,9 +196,10 @@ pub fn judge(
     let windows: Vec<usize> = (end..horizon.saturating_sub(window)).step_by(window.max(1) / 2 + 1).collect();
     let bad = |k: usize| rms(&e_fault[k..k + window]) > 2.0 * rms(&e_clean[k..k + window]).max(1.0);
     let last_bad = windows.iter().rev().find(|&&k| bad(k));
-    let recovered_at = match last_bad {
-        None => Some(end),
-        Some(&k) => (k + window < horizon.saturating_sub(window)).then_some(k + window),
+    let recovered_at = match (failed, last_bad) {
+        (true, _) => None,
+        (false, None) => Some(end),
+        (false, Some(&k)) => (k + window < horizon.saturating_sub(window)).then_some(k + window),
     };
     let recovery = recovered_at.map(|k| (k - end) as f64 * bench.dt);
     let error_after = recovered_at.map_or(f64::INFINITY, |k| e_fault[k..horizon].iter().copied().fold(0.0, f64::max));
@@ -213,5 +226,6 @@ pub fn judge(
         disagreements,
         judged: horizon.saturating_sub(episode.start),
         warnings: faulty.warnings,
+        failed,
     }
 }

@@ -86,3 +86,63 @@ pub fn s3(duration: f64, seed: u64) -> Bench {
         bound: 0.5,
     }
 }
+
+/// The first `samples` rows of a table.
+fn first<T: Clone>(rows: &[T], samples: usize) -> Vec<T> {
+    rows[..samples.min(rows.len())].to_vec()
+}
+
+/// S4: the paper's run (no injected telegram faults: the episodes are the
+/// faults), the four position channels every 20 ms (the marker never set);
+/// the speed and the position scored.
+pub fn s4(duration: f64, seed: u64) -> Bench {
+    use truth::s4::channels::simulate;
+    use truth::s4::faults::Faults;
+    use truth::s4::profile::Profile;
+    let recording = simulate(&Profile::paper(), &Faults::none(), seed);
+    let tuning = crate::s4::ours::Tuning::paper();
+    let dt = recording.telegram_interval;
+    let samples = (duration / dt).ceil() as usize;
+    let z: Vec<Vec<f64>> = (0..recording.n_telegrams())
+        .map(|k| (0..4).map(|c| if recording.received[c][k] { recording.position[c][k] } else { f64::NAN }).collect())
+        .collect();
+    Bench {
+        study: "S4",
+        identifier: crate::s4::fmu_run::IDENTIFIER,
+        inputs: vec!["P_head_left", "P_head_right", "P_tail_left", "P_tail_right"],
+        controls: Vec::new(),
+        dt,
+        z: first(&z, samples),
+        u: Vec::new(),
+        targets: vec!["speed", "position"],
+        truth: first(&recording.truth, samples).iter().map(|t| vec![t.speed, t.position]).collect(),
+        parameters: crate::s4::fmu_run::parameters(&recording, &tuning),
+        integers: Vec::new(),
+        bound: 2.0,
+    }
+}
+
+/// S5: the paper's manoeuvre on its 6-DOF, the twelve sensors every 5 ms and
+/// the three deflections as controls; the ten coefficients scored.
+pub fn s5(duration: f64, seed: u64) -> Bench {
+    use truth::s5::flight::{measure, simulate_named, Settings};
+    let settings = Settings { seed, ..Settings::default() };
+    let truth = simulate_named("standard", &settings).expect("the S5 truth of the study's settings");
+    let measurements = measure(&truth, settings.noise_scale, settings.seed);
+    let tuning = crate::s5::study::Tuning::new(settings.noise_scale);
+    let samples = (duration / settings.sample_time).ceil() as usize;
+    Bench {
+        study: "S5",
+        identifier: crate::s5::fmu_run::IDENTIFIER,
+        inputs: vec!["omega_x", "omega_y", "omega_z", "Nx", "Ny", "Nz", "phi", "psi", "gamma", "h", "alpha", "beta"],
+        controls: vec!["delta_x", "delta_y", "delta_z"],
+        dt: settings.sample_time,
+        z: first(&measurements, samples).iter().map(|z| z.to_vec()).collect(),
+        u: first(&truth.deflections, samples).iter().map(|u| u.to_vec()).collect(),
+        targets: truth::s5::parameters::NAMES.to_vec(),
+        truth: first(&truth.coefficients, samples).iter().map(|c| c.to_vec()).collect(),
+        parameters: crate::s5::fmu_run::parameters(&settings, &tuning),
+        integers: crate::s5::fmu_run::integers(&tuning),
+        bound: 2.0,
+    }
+}

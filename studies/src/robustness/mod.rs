@@ -35,7 +35,7 @@ pub struct Args {
     /// Seed of the episodes (the truths keep their studies' seeds).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Only these studies (comma-separated: s1,s2,s3); all by default.
+    /// Only these studies (comma-separated: s1,s2,s3,s4,s5); all by default.
     #[arg(long, value_delimiter = ',')]
     pub studies: Vec<String>,
     /// Run only the batches K, K + N, … of the N (1-based): `--shard 2/4`.
@@ -53,11 +53,16 @@ const LONGEST: usize = 1000;
 /// The benches of the studies asked for, each long enough for its episodes.
 fn benches(studies: &[String]) -> anyhow::Result<Vec<Bench>> {
     type Make = fn(f64, u64) -> Bench;
-    let all: [(&str, Make, f64, f64); 3] =
-        [("s1", benches::s1, 0.005, 2.0), ("s2", benches::s2, 0.001, 0.5), ("s3", benches::s3, 0.001, 0.5)];
+    let all: [(&str, Make, f64, f64); 5] = [
+        ("s1", benches::s1, 0.005, 2.0),
+        ("s2", benches::s2, 0.001, 0.5),
+        ("s3", benches::s3, 0.001, 0.5),
+        ("s4", benches::s4, 0.02, 2.0),
+        ("s5", benches::s5, 0.005, 2.0),
+    ];
     for name in studies {
         if !all.iter().any(|(n, ..)| n == name) {
-            anyhow::bail!("unknown study '{name}'; expected one of s1, s2, s3");
+            anyhow::bail!("unknown study '{name}'; expected one of s1, s2, s3, s4, s5");
         }
     }
     Ok(all
@@ -89,7 +94,7 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
          recovery to the horizon; false flags: samples with <input>_fault on an input none of whose last 3 samples \
          was corrupted; healthy ≠ error: the share of samples from the episode's start to the horizon where \
          filter_healthy disagrees with the error (mean (e/σ)² of the scored estimates within 9); lost: steps answered \
-         with fmi2Warning"
+         with fmi2Warning; failed: runs the FMU ended with fmi2Discard (its filter failed: the last good estimate kept)"
     );
     Ok(())
 }
@@ -120,7 +125,8 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
                 let mut z = bench.z.clone();
                 episode.apply(&mut z, &rms);
                 let horizon = episode.end() + after;
-                let faulty = bench.drive(&fmu, Some(&z), horizon)?;
+                let faulty =
+                    bench.drive(&fmu, Some(&z), horizon).with_context(|| format!("{}: {episode:?}", bench.study))?;
                 Ok((episode.kind, judge(bench, &clean, &faulty, episode, &scale, window, horizon)))
             })
             .collect()
@@ -148,24 +154,29 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
     );
     let _ = writeln!(
         out,
-        "  {:<11} {:>9} {:>14} {:>10} {:>10} {:>11} {:>13} {:>6}",
+        "  {:<11} {:>9} {:>14} {:>10} {:>22} {:>11} {:>13} {:>6}",
         "fault", "episodes", "within bound", "median", "worst", "after", "false flags", "lost"
     );
-    let _ = writeln!(out, "  {:>77}", "healthy ≠ error");
+    let _ = writeln!(out, "  {:>89}", "healthy ≠ error");
     for (kind, verdicts) in &by_kind {
         let mut times: Vec<f64> = verdicts.iter().filter_map(|v| v.recovery).collect();
         times.sort_by(f64::total_cmp);
         let recovered = verdicts.iter().filter(|v| v.recovery.is_some_and(|t| t <= bench.bound)).count();
         let never = verdicts.len() - times.len();
+        let failed = verdicts.iter().filter(|v| v.failed).count();
         let median = times.get(times.len() / 2).map_or("—".into(), |t| format!("{t:.3} s"));
-        let worst = if never > 0 { format!("{never} never") } else { format!("{:.3} s", times.last().unwrap_or(&0.0)) };
+        let worst = match (never, failed) {
+            (0, _) => format!("{:.3} s", times.last().unwrap_or(&0.0)),
+            (_, 0) => format!("{never} never"),
+            _ => format!("{never} never ({failed} failed)"),
+        };
         let after = verdicts.iter().map(|v| v.error_after).filter(|e| e.is_finite()).fold(0.0, f64::max);
         let flags: usize = verdicts.iter().map(|v| v.false_flags).sum();
         let (disagree, judged) = verdicts.iter().fold((0, 0), |(d, j), v| (d + v.disagreements, j + v.judged));
         let lost: usize = verdicts.iter().map(|v| v.warnings).sum();
         let _ = writeln!(
             out,
-            "  {:<11} {:>9} {:>14} {:>10} {:>10} {:>11.2} {:>13} {:>6} {:>8.3}",
+            "  {:<11} {:>9} {:>14} {:>10} {:>22} {:>11.2} {:>13} {:>6} {:>8.3}",
             kind.to_string(),
             verdicts.len(),
             format!("{recovered} of {}", verdicts.len()),
