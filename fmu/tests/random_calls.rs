@@ -1640,10 +1640,20 @@ fn rejected_calls_leave_the_instance_usable() {
                     assert!(messages.iter().any(|(_, m)| m.contains("illegal call sequence")), "{messages:?}");
                 }
                 let (mut ya, mut yb) = (vec![0.0; outputs.len()], vec![0.0; outputs.len()]);
+                let mut statuses = Vec::with_capacity(2);
                 for (c, y) in [(a, &mut ya), (b, &mut yb)] {
-                    assert_eq!(fmu::fmi2DoStep(c, t, dt, 1), Fmi2Status::Ok, "{} sample {k}", table.id());
+                    // A warning is a step made: these synthetic inputs can drive an
+                    // estimate out of its plausible range (fmu/src/plausibility.rs).
+                    let status = fmu::fmi2DoStep(c, t, dt, 1);
+                    assert!(
+                        matches!(status, Fmi2Status::Ok | Fmi2Status::Warning),
+                        "{} sample {k}: {status:?}",
+                        table.id()
+                    );
+                    statuses.push(status);
                     assert_eq!(fmu::fmi2GetReal(c, outputs.as_ptr(), outputs.len(), y.as_mut_ptr()), Fmi2Status::Ok);
                 }
+                assert_eq!(statuses[0], statuses[1], "{} sample {k}: the refused calls changed the step", table.id());
                 let bits = |y: &[f64]| y.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&ya), bits(&yb), "{} sample {k}: the refused calls changed the estimate", table.id());
             }
