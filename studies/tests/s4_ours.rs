@@ -284,11 +284,15 @@ fn the_supervisors_reacquisition_alone_takes_slips_in_worse_than_the_rebase() {
             e.speed_max, e.position_max, last.position_std, out.reacquisitions
         );
     }
-    // Re-based, the position's σ is the common offset's, 0.05/2 m, for good; each
-    // re-acquisition inflates that unobservable direction too, and nothing brings it back.
+    // Re-based, the position's σ is the common offset's, 0.05/2 m, for good. Each
+    // re-acquisition inflates that unobservable direction too; the restarts
+    // (`estimator/src/supervisor/restart.rs`) bring the σ back, but only after the
+    // slips have thrown the speed off by tens of m/s and the filter has been
+    // unhealthy for thousands of telegrams.
     let sigma = |out: &Run| out.estimates.last().unwrap().position_std;
     assert!((sigma(&rebase) - 0.025).abs() < 1e-3, "{}", sigma(&rebase));
-    assert!(sigma(&reacquire) > 1.0, "{}", sigma(&reacquire));
     assert!(reacquire.reacquisitions.iter().sum::<u64>() > 0);
-    assert!(speed_max[1] > 2.0 * speed_max[0], "{speed_max:?}");
+    assert!(speed_max[1] > 100.0 * speed_max[0], "{speed_max:?}");
+    let unhealthy = |out: &Run| out.estimates.iter().filter(|e| !e.healthy).count();
+    assert!((unhealthy(&rebase), unhealthy(&reacquire) > 1000) == (0, true));
 }

@@ -1,5 +1,6 @@
-//! The last resort: a filter that has disagreed with every sensor for a whole
-//! consistency window starts again from where its states have been.
+//! The last resort: a filter that has used no row for a whole consistency
+//! window, or whose belief has left its plausible range, starts again from
+//! where its states have been.
 //!
 //! Re-acquisitions and their rivals (`reacquisition.rs`, `rival.rs`) repair a
 //! belief that one episode moved. An episode on every input at once (S1's two
@@ -16,18 +17,24 @@
 //! channels stays there, consistent, after the offset ends.
 //!
 //! So the supervisor remembers, from the samples it judged healthy
-//! (consistent, every row offered used, nothing under revision), where the states
-//! have been: a forgetting mean and variance of each state's estimate, and
-//! the filter's mean variance of it (its memory is [`MEMORY_WINDOWS`] consistency windows). When no row has been
-//! used for a whole window (`SupervisorSettings::window` samples), or the
-//! belief is implausible, it restarts at that mean, each state's variance
-//! four times its spread plus the filter's own mean variance of it over those
-//! samples (not the lost belief's, which a long prediction has blown up), the
-//! covariance diagonal, and the gate goes on from there. The restarted belief meets the
-//! data the next samples bring; if they are still bad, the filter is lost
-//! again and the next restart comes a window later, so that the cost of an
-//! episode on every input is a window after its end plus the filter's own
-//! convergence from the restart.
+//! (consistent, every row offered used, nothing under revision), where the
+//! states have been: a forgetting mean and variance of each state's estimate,
+//! and the filter's mean variance of it (its memory is [`MEMORY_WINDOWS`]
+//! consistency windows). When no row has been used for a whole window
+//! (`SupervisorSettings::window` samples), or the belief is implausible, it
+//! restarts at that mean, each state's variance four times its spread plus
+//! the filter's own mean variance of it over those samples (not the lost
+//! belief's, which a long prediction has blown up), the covariance diagonal,
+//! and the gate goes on from there. The restarted belief meets the data the
+//! next samples bring; if they are still bad, the filter is lost again and
+//! the next restart comes a window later, so that the cost of an episode on
+//! every input is a window after its end plus the filter's own convergence
+//! from the restart.
+//!
+//! What it cannot do: a state that moves on (a position along a guideway)
+//! restarts where it was on average, behind where it is, and only its spread
+//! says how far: S4 with its slips left to re-acquisitions runs 200 m off
+//! before the telegrams pull it back (`studies/tests/s4_ours.rs`).
 //!
 //! A restart also ends any re-acquisition rival and jump review, and gives
 //! the re-acquisitions their budget back.

@@ -18,7 +18,7 @@
 //! χ²(1) quantile of `1 − 1e-6`: a row that neither belief explains (the
 //! burst still going) costs both about the same, a row one belief explains
 //! and the other does not moves the evidence by up to `c/2` nats. The first
-//! belief whose lead reaches `c` nats (two rows' worth, odds of about 10⁵)
+//! belief whose lead reaches `c` nats (two rows' worth, odds of about 10¹⁰)
 //! is kept; at the consistency window's end the one ahead is. The rival
 //! never re-acquires itself and there is one at a time: the belief kept
 //! aside is the one from before the episode.

@@ -9,8 +9,9 @@
 //! ([`Outcome::steps`](crate::Outcome::steps)). The covariance is kept: the
 //! quantum is exact. A spike fails one sample and the next passes. A
 //! re-acquisition instead would inflate every state, the unobservable ones
-//! too (S4: a slip shared out over the other channels, the position's σ from
-//! 0.025 to 4,100 m).
+//! too (S4: a slip shared out over the other channels, the speed off by
+//! 99 m/s and the filter unhealthy for 2811 telegrams before the restarts of
+//! `restart.rs` bring it back; `studies/tests/s4_ours.rs`).
 
 use super::channel::Channel;
 use super::outcome::{Outcome, RowOutcome};
