@@ -38,7 +38,7 @@ use super::jump::Jumps;
 use super::reacquisition::Reacquisition;
 use super::Supervisor;
 use crate::error::FilterError;
-use crate::filter::FilterKind;
+use crate::filter::{FilterKind, Snapshot};
 
 /// The first word of every supervisor memory.
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
@@ -236,6 +236,23 @@ fn field<T: Word>(word: Option<u64>, what: &str, name: &str) -> Result<T, Filter
 
 fn invalid(why: String) -> FilterError {
     FilterError::InvalidSetting(format!("supervisor memory: {why}"))
+}
+
+/// `to` made a copy of `from`, in its own buffer.
+fn refill(to: &mut Vec<f64>, from: &[f64]) {
+    to.clear();
+    to.extend_from_slice(from);
+}
+
+/// A saved belief of `inputs` inputs and `states` states, of filter kind and
+/// time `at`, from its floats (inputs, means, covariance words).
+fn fill_belief(belief: &mut Snapshot, at: (FilterKind, f64), inputs: usize, states: usize, floats: &[f64]) {
+    let (input, rest) = floats.split_at(inputs);
+    let (mean, covariance) = rest.split_at(states);
+    (belief.kind, belief.time) = at;
+    refill(&mut belief.input, input);
+    refill(&mut belief.mean, mean);
+    refill(&mut belief.covariance, covariance);
 }
 
 /// The words of `count` records of type `R` from `at`, and where the next part starts.
@@ -498,15 +515,7 @@ impl Supervisor {
         self.review.explained = explained;
         if review.active {
             for (belief, floats) in [(&mut self.review.hypothesis, hypothesis), (&mut self.review.jumped, jumped)] {
-                let (input, rest) = floats.split_at(review.inputs);
-                let (mean, covariance) = rest.split_at(review.states);
-                (belief.kind, belief.time) = (kind, review.time);
-                for (to, from) in
-                    [(&mut belief.input, input), (&mut belief.mean, mean), (&mut belief.covariance, covariance)]
-                {
-                    to.clear();
-                    to.extend_from_slice(from);
-                }
+                fill_belief(belief, (kind, review.time), review.inputs, review.states, floats);
             }
         }
         self.rival.active = rival.active;
@@ -515,25 +524,12 @@ impl Supervisor {
         self.rival.entries.extend_from_slice(&rival_entries);
         if rival.active {
             let belief = &mut self.rival.belief;
-            let (input, rest) = rival_floats.split_at(rival.inputs);
-            let (mean, covariance) = rest.split_at(rival.states);
-            (belief.kind, belief.time) = (rival_kind, rival.time);
-            for (to, from) in
-                [(&mut belief.input, input), (&mut belief.mean, mean), (&mut belief.covariance, covariance)]
-            {
-                to.clear();
-                to.extend_from_slice(from);
-            }
+            fill_belief(belief, (rival_kind, rival.time), rival.inputs, rival.states, rival_floats);
         }
         self.climate.learnt = climate.learnt;
-        for (to, from) in [
-            (&mut self.climate.mean, climate_mean),
-            (&mut self.climate.variance, climate_variance),
-            (&mut self.climate.doubt, climate_doubt),
-        ] {
-            to.clear();
-            to.extend_from_slice(from);
-        }
+        refill(&mut self.climate.mean, climate_mean);
+        refill(&mut self.climate.variance, climate_variance);
+        refill(&mut self.climate.doubt, climate_doubt);
         self.reacquisition = reacquisition;
         self.window.restore(cursor, &entries);
         Ok(())
