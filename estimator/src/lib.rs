@@ -76,5 +76,6 @@ pub use smoothing::fixed_interval::{
 pub use smoothing::fixed_lag::{FixedLagSmoother, LaggedEstimate, Transition};
 pub use supervised::{Event, RunError, Sample, Step, SupervisedFilter};
 pub use supervisor::{
-    Channel, FaultChange, Outcome, QuantizedSteps, Revision, RowOutcome, Supervisor, SupervisorSettings,
+    Channel, FaultChange, Outcome, Outside, PlausibleBound, PlausibleRange, QuantizedSteps, Revision, RowOutcome,
+    Supervisor, SupervisorSettings,
 };

@@ -427,14 +427,17 @@ impl SupervisedFilter {
         if let Some(channel) = self.supervisor.pending().reacquired {
             self.events.push(Event::Reacquired { channel, time });
         }
-        let undone = self.supervisor.pending().revision == crate::supervisor::Revision::Undone;
+        let undone = match self.supervisor.pending().revision {
+            crate::supervisor::Revision::Undone { trigger } => Some(trigger),
+            _ => None,
+        };
         if self.supervisor.pending().restarted {
             self.events.push(Event::Restarted { time });
         }
         let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());
         let events = &mut self.events;
         self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));
-        if let (true, Some(channel)) = (undone, self.supervisor.undone_trigger()) {
+        if let Some(channel) = undone {
             self.events.push(Event::ReacquisitionUndone { channel, time });
         }
         if self.supervisor.consistent() != was_consistent {

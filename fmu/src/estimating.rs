@@ -8,13 +8,13 @@
 //! stepping marks them stale, and the next get computes them (as the
 //! Reference-FMUs do), so a read after new inputs has direct feedthrough.
 
-use estimator::{Event, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
+use estimator::{Event, Outside, RowOutcome, StateEstimator, Supervisor, SupervisorSettings, UnscentedParams};
 
 use crate::estimators::{self, status_value, Descriptor, MAX_DERIVED};
 use crate::ffi::Fmi2Status;
 use crate::input_timing_check::{InputTimingCheck, Phase};
 use crate::instance::Shell;
-use crate::plausibility::{self, Implausible, PlausibleRange};
+use crate::plausibility;
 use crate::state::ModelState;
 use crate::timing::{Estimation, InputTiming, Reading};
 use crate::variables::{Parameters, Role, Variability};
@@ -39,8 +39,6 @@ pub struct Estimating {
     pub(crate) off_grid_reported: bool,
     /// Whether the master's ordering fits `input_timing` (`input_timing_check.rs`).
     pub(crate) timing_check: InputTimingCheck,
-    /// Where the unknown inputs can plausibly be (`plausibility.rs`), from the prior.
-    plausible: Option<PlausibleRange>,
     /// The values of the last plausible reading: what the outputs show while the filter is lost.
     last_plausible: Vec<f64>,
     /// The estimate is outside its plausible range (reported once per episode).
@@ -62,7 +60,6 @@ impl Estimating {
             missing_reported: vec![false; m],
             off_grid_reported: false,
             timing_check: InputTimingCheck::new(m),
-            plausible: None,
             last_plausible: Vec::new(),
             lost: false,
         }
@@ -83,7 +80,6 @@ impl Estimating {
         self.missing_reported.iter_mut().for_each(|r| *r = false);
         self.off_grid_reported = false;
         self.timing_check.reset();
-        self.plausible = None;
         self.lost = false;
         self.set_role(shell, Role::InputTimingCheck, f64::from(crate::input_timing_check::UNDECIDED));
     }
@@ -146,10 +142,6 @@ impl Estimating {
         match build_estimation(&self.descriptor, &shell.values, shell.start_time, &self.controls) {
             Ok(estimation) => {
                 let kind = estimation.filter().kind();
-                match PlausibleRange::new(&self.descriptor, &shell.values, estimation.filter()) {
-                    Ok(range) => self.plausible = Some(range),
-                    Err(why) => return shell.error(&format!("fmi2ExitInitializationMode: {why}")),
-                }
                 self.last_plausible.clone_from(&shell.values);
                 self.lost = false;
                 // The inputs set in initialisation mode, kept for the first step to compare.
@@ -181,6 +173,7 @@ impl Estimating {
                 statuses: &statuses,
                 healthy: true,
                 process_noise_scale: 1.0,
+                plausible: true,
                 smoothed: None,
             };
             write_outputs(&self.descriptor, &mut shell.values, Some(&prior));
@@ -221,7 +214,7 @@ impl Estimating {
         }
         let off_grid = !estimation.at_current_sample(end);
         let timing = estimation.timing();
-        let implausible = self.plausible.as_ref().and_then(|range| range.check(estimation.filter()));
+        let outside = estimation.outside();
         if off_grid && !self.off_grid_reported {
             self.off_grid_reported = true;
             let ts = self.sample_time(shell);
@@ -239,28 +232,24 @@ impl Estimating {
         }
         self.inputs_set = false;
         self.outputs_stale = true;
-        self.judge_plausibility(shell, implausible, end)
+        self.judge_plausibility(shell, outside, end)
     }
 
     /// After a step to `time`: a lost filter (`plausibility.rs`) makes the
     /// step fmi2Warning, said once per episode, as is its end.
-    fn judge_plausibility(&mut self, shell: &Shell, implausible: Option<Implausible>, time: f64) -> Fmi2Status {
-        match (implausible, self.lost) {
+    fn judge_plausibility(&mut self, shell: &Shell, outside: Option<Outside>, time: f64) -> Fmi2Status {
+        match (outside, self.lost) {
             (Some(bad), lost) => {
                 if !lost {
-                    let name = self.state_name(bad.state);
+                    let name = self.state_name(bad.range.state);
                     shell.log(
                         Fmi2Status::Warning,
                         "logStatusWarning",
                         &format!(
                             "the filter is lost at t = {time} s: {name} is {:e} ± {:e}, beyond its plausible range \
-                             {:e} ± {:e} ({} prior σ); the outputs hold the last plausible estimate and \
-                             filter_healthy is false until it is plausible again (are the noise parameters right?)",
-                            bad.value,
-                            bad.std,
-                            bad.centre,
-                            bad.bound,
-                            plausibility::PRIOR_SIGMAS
+                             {:e} ± {:e}; the outputs hold the last plausible estimate and filter_healthy is \
+                             false until it is plausible again (are the noise parameters right?)",
+                            bad.value, bad.std, bad.range.centre, bad.range.bound,
                         ),
                     );
                 }
@@ -274,13 +263,6 @@ impl Estimating {
             }
             (None, false) => Fmi2Status::Ok,
         }
-    }
-
-    /// After an FMU state is restored: the plausible range of its filter's prior;
-    /// whether it is lost is judged at the next step.
-    pub(crate) fn restored_plausibility(&mut self, range: Option<PlausibleRange>) {
-        self.plausible = range;
-        self.lost = false;
     }
 
     /// The name of the output of state `i`'s estimate.
@@ -362,7 +344,7 @@ impl Estimating {
                 Event::Restarted { time } => (
                     Fmi2Status::Warning,
                     "logStatusWarning",
-                    format!("the filter restarted at t = {time} s: no input had passed the gate for consistency_window samples; it starts again from where its states have been while it was healthy"),
+                    format!("the filter restarted at t = {time} s: no input had passed the gate for consistency_window samples, or its estimate had left its plausible range; it starts again from where its states have been while it was healthy"),
                 ),
                 Event::Consistent { consistent: false, time } => (
                     Fmi2Status::Warning,
@@ -415,8 +397,7 @@ impl Estimating {
         let failed = match estimation.read(shell.time, inputs, &noise_over) {
             Ok(reading) => {
                 write_outputs(&self.descriptor, &mut shell.values, Some(&reading));
-                let plausible = self.plausible.as_ref().is_none_or(|range| range.check(reading.belief).is_none());
-                if plausible {
+                if reading.plausible {
                     // Sized once, at the first read: later reads allocate nothing.
                     self.last_plausible.clone_from(&shell.values);
                 } else {
@@ -578,7 +559,7 @@ pub fn build_supervisor(
     prior: &dyn StateEstimator,
 ) -> Result<Supervisor, String> {
     let state_dim = prior.state_dim();
-    let plausible = PlausibleRange::new(descriptor, values, prior)?;
+    let plausible = plausibility::plausible_range(descriptor, values, prior)?;
     let p = Parameters::new(&descriptor.variables, values);
     let count = |name: &str| -> Result<u32, String> { Ok(p.get(name)? as u32) };
     let settings = SupervisorSettings {
@@ -597,8 +578,8 @@ pub fn build_supervisor(
     };
     let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())
         .and_then(|s| s.with_jump_states(state_dim, descriptor.unknown_inputs))
-        .and_then(|s| s.with_plausible_range(state_dim, plausible.bounds()))
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| e.to_string())?
+        .with_plausible_range(plausible);
     if let Some(steps) = (descriptor.build_steps)(&p)? {
         supervisor = supervisor.with_steps(steps).map_err(|e| e.to_string())?;
     }

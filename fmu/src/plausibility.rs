@@ -19,7 +19,7 @@
 //!   2e-3), and it makes the filter trust a typo so far that it diverges.
 //!   `fmi2ExitInitializationMode` refuses it and names the parameter.
 
-use estimator::StateEstimator;
+use estimator::{PlausibleBound, PlausibleRange, StateEstimator};
 
 use crate::estimators::Descriptor;
 use crate::variables::{Parameters, Role, Variable};
@@ -34,61 +34,34 @@ pub const PRIOR_SIGMAS: f64 = 1e3;
 /// (2e-13 for 2e-3: fifteen), not honest quiet sensors.
 pub const NOISE_FLOOR: f64 = 1e-9;
 
-/// The plausible range of each unknown input, from the prior.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlausibleRange {
-    /// `(state, prior mean, largest distance from it and largest σ)`.
-    bounds: Vec<(usize, f64, f64)>,
-}
-
-/// A state found outside its plausible range.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Implausible {
-    /// The state.
-    pub state: usize,
-    /// Its estimate and σ.
-    pub value: f64,
-    pub std: f64,
-    /// The prior mean and the largest distance from it (and σ).
-    pub centre: f64,
-    pub bound: f64,
-}
-
-impl PlausibleRange {
-    /// The range of `descriptor`'s unknown inputs with the parameter values
-    /// `values`, for a filter whose belief at the start is `prior`: the
-    /// estimator's own bound around 0, or [`PRIOR_SIGMAS`] prior σ around the
-    /// prior mean (a state with a σ of 0 in the prior gets no bound then).
-    pub fn new(descriptor: &Descriptor, values: &[f64], prior: &dyn StateEstimator) -> Result<Self, String> {
-        let own = (descriptor.plausible_bound)(&Parameters::new(&descriptor.variables, values))?;
-        let bounds = descriptor
-            .unknown_inputs
-            .iter()
-            .filter_map(|&i| match own {
-                Some(bound) => Some((i, 0.0, bound)),
-                None => {
-                    let std = prior.variance(i).max(0.0).sqrt();
-                    (std > 0.0 && std.is_finite()).then(|| (i, prior.mean()[i], PRIOR_SIGMAS * std))
-                }
-            })
-            .collect();
-        Ok(Self { bounds })
-    }
-
-    /// `(state, centre, bound)` per bounded state, as the supervisor takes them.
-    pub fn bounds(&self) -> &[(usize, f64, f64)] {
-        &self.bounds
-    }
-
-    /// The first state of `belief` outside its range, if any.
-    pub fn check(&self, belief: &dyn StateEstimator) -> Option<Implausible> {
-        self.bounds.iter().find_map(|&(state, centre, bound)| {
-            let value = belief.mean()[state];
-            let std = belief.variance(state).max(0.0).sqrt();
-            let inside = (value - centre).abs() <= bound && std <= bound;
-            (!inside).then_some(Implausible { state, value, std, centre, bound })
+/// The plausible range of `descriptor`'s unknown inputs with the parameter
+/// values `values`, for a filter whose belief at the start is `prior`: the
+/// estimator's own bound around 0, or [`PRIOR_SIGMAS`] prior σ around the
+/// prior mean (a state with a σ of 0 in the prior gets no bound then). The
+/// supervisor restarts a belief outside it and judges it
+/// (`estimator::PlausibleRange`); the instance reports it.
+pub fn plausible_range(
+    descriptor: &Descriptor,
+    values: &[f64],
+    prior: &dyn StateEstimator,
+) -> Result<PlausibleRange, String> {
+    let own = (descriptor.plausible_bound)(&Parameters::new(&descriptor.variables, values))?;
+    let bounds = descriptor
+        .unknown_inputs
+        .iter()
+        .filter_map(|&state| match own {
+            Some(bound) => Some(PlausibleBound { state, centre: 0.0, bound }),
+            None => {
+                let std = prior.variance(state).max(0.0).sqrt();
+                (std > 0.0 && std.is_finite()).then(|| PlausibleBound {
+                    state,
+                    centre: prior.mean()[state],
+                    bound: PRIOR_SIGMAS * std,
+                })
+            }
         })
-    }
+        .collect();
+    PlausibleRange::new(prior.state_dim(), bounds).map_err(|e| e.to_string())
 }
 
 /// Refuses a sensor noise σ more than `1/`[`NOISE_FLOOR`] below the

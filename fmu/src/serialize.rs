@@ -43,7 +43,6 @@ use crate::estimating::Estimating;
 use crate::estimators::{status_outcome, status_value};
 use crate::input_timing_check::Phase;
 use crate::instance::{Behaviour, Instance};
-use crate::plausibility::PlausibleRange;
 use crate::simulating::Simulating;
 use crate::state::ModelState;
 use crate::timing::{Estimation, Progress};
@@ -296,13 +295,11 @@ pub fn apply(instance: &mut Instance, saved: Saved) -> Result<(), String> {
 fn apply_estimator(e: &mut Estimating, saved: SavedEstimator, values: &[f64], start_time: f64) -> Result<(), String> {
     let mut timing_check = e.timing_check.clone();
     timing_check.restore(saved.check_phase, &saved.check_compared, &saved.check_row)?;
-    let (estimation, plausible) = match &saved.progress {
-        None => (None, None),
+    let estimation = match &saved.progress {
+        None => None,
         Some(progress) => {
             let fresh = crate::estimating::build_estimation(&e.descriptor, values, start_time, &progress.controls)?;
-            // The plausible range is the prior's, which the fresh filter holds.
-            let plausible = PlausibleRange::new(&e.descriptor, values, fresh.filter())?;
-            (Some(fresh.resume(progress).map_err(|e| format!("cannot restore the filter: {e}"))?), Some(plausible))
+            Some(fresh.resume(progress).map_err(|e| format!("cannot restore the filter: {e}"))?)
         }
     };
     e.off_grid_reported = saved.off_grid_reported;
@@ -311,7 +308,8 @@ fn apply_estimator(e: &mut Estimating, saved: SavedEstimator, values: &[f64], st
     e.missing_reported = saved.missing_reported;
     e.timing_check = timing_check;
     e.estimation = estimation;
-    e.restored_plausibility(plausible);
+    // Whether the restored belief is lost is judged at the next step.
+    e.lost = false;
     e.mark_outputs_stale();
     Ok(())
 }

@@ -140,6 +140,8 @@ pub struct Reading<'a> {
     pub healthy: bool,
     /// The adapted scale on `Q` the belief was predicted with.
     pub process_noise_scale: f64,
+    /// The belief is inside its plausible range (`estimator::Supervisor::outside`).
+    pub plausible: bool,
     /// The fixed-lag smoothed estimate that goes with the belief (rule 9),
     /// when the instance smooths.
     pub smoothed: Option<Smoothed<'a>>,
@@ -495,6 +497,7 @@ impl Estimation {
                         statuses: &supervisor.pending().rows,
                         healthy,
                         process_noise_scale,
+                        plausible: supervisor.outside(self.reader.as_ref()).is_none(),
                         smoothed: self.smoothed.as_ref().map(SmoothedCopy::shown),
                     })
                 }
@@ -534,8 +537,9 @@ impl Estimation {
         for (c, flag) in self.faulty.iter_mut().enumerate() {
             *flag = supervisor.channels()[c].faulty;
         }
+        let belief = if reader { self.reader.as_ref() } else { self.supervised.filter() };
         Reading {
-            belief: if reader { self.reader.as_ref() } else { self.supervised.filter() },
+            belief,
             nis: self.supervised.nis(),
             skipped: self.supervised.skipped(),
             rejected: supervisor.rejected(),
@@ -543,8 +547,14 @@ impl Estimation {
             statuses: &self.committed_statuses,
             healthy: supervisor.healthy(),
             process_noise_scale: supervisor.process_noise_scale(),
+            plausible: supervisor.outside(belief).is_none(),
             smoothed: self.smoothed.as_ref().map(SmoothedCopy::shown),
         }
+    }
+
+    /// The first state of the filter's belief outside its plausible range, if any.
+    pub fn outside(&self) -> Option<estimator::Outside> {
+        self.supervised.supervisor().outside(self.supervised.filter())
     }
 
     /// Gives the reader the noise of a prediction over `dt` (built by

@@ -299,7 +299,7 @@ impl Supervisor {
     /// The adaptation's evidence: the first pass's clipped normalised
     /// innovations and shares of the rows finally used (`adaptation.rs`).
     fn gather_adaptation_evidence(&mut self) {
-        if self.pending.revision == Revision::Undone {
+        if self.pending.undone() {
             // The update is the rival's: the filter's own first pass says nothing of it.
             (self.pending.adaptation_ratios, self.pending.adaptation_share, self.pending.adaptation_rows) =
                 (0.0, 0.0, 0);

@@ -44,6 +44,7 @@ mod gate;
 mod jump;
 mod memory;
 mod outcome;
+mod plausible;
 mod reacquisition;
 mod restart;
 mod rival;
@@ -53,6 +54,7 @@ mod steps;
 
 pub use channel::Channel;
 pub use outcome::{FaultChange, Outcome, Revision, RowOutcome};
+pub use plausible::{Outside, PlausibleBound, PlausibleRange};
 pub use settings::SupervisorSettings;
 pub use steps::QuantizedSteps;
 
@@ -85,9 +87,8 @@ pub struct Supervisor {
     review: Review,
     rival: Rival,
     climate: Climate,
-    /// `(state, centre, bound)`: a belief with `|x̂ − centre|` or σ above the
-    /// bound, or not finite, is lost and restarts (`restart.rs`).
-    plausible: Vec<(usize, f64, f64)>,
+    /// A belief outside it is lost and restarts (`restart.rs`).
+    plausible: PlausibleRange,
     // The pending sample.
     pending: Outcome,
     /// The measurement of the pending outcome, as offered.
@@ -112,7 +113,7 @@ impl Supervisor {
             review: Review::new(m),
             rival: Rival::new(settings.window),
             climate: Climate::new(),
-            plausible: Vec::new(),
+            plausible: PlausibleRange::default(),
             pending: Outcome::none(m),
             z_offered: vec![f64::NAN; m],
             work: Workspace::new(m),
@@ -138,30 +139,19 @@ impl Supervisor {
         Ok(self)
     }
 
-    /// With a plausible range of some states of an `n`-state model, each
-    /// `(state, centre, bound)`: a belief whose estimate of one of them is
-    /// further than `bound` from `centre`, or whose σ is above `bound`, or
-    /// that is not finite, has lost the state, and restarts (`restart.rs`)
-    /// once it has learnt where the states go. Without this call only a
-    /// window without any row used makes the filter restart.
-    pub fn with_plausible_range(mut self, n: usize, bounds: &[(usize, f64, f64)]) -> Result<Self, FilterError> {
-        if let Some(&(i, centre, bound)) =
-            bounds.iter().find(|(i, centre, bound)| *i >= n || !centre.is_finite() || bound.is_nan() || *bound <= 0.0)
-        {
-            return Err(FilterError::InvalidSetting(format!(
-                "plausible range of state {i} ({centre} ± {bound}) for an {n}-state model"
-            )));
-        }
-        self.plausible = bounds.to_vec();
-        Ok(self)
+    /// With a plausible range of some states: a belief outside it has lost
+    /// the state, and restarts (`restart.rs`) once it has learnt where the
+    /// states go. Without this call only a window without any row used makes
+    /// the filter restart.
+    pub fn with_plausible_range(mut self, range: PlausibleRange) -> Self {
+        self.plausible = range;
+        self
     }
 
-    /// Whether `filter`'s belief is inside its plausible range ([`Supervisor::with_plausible_range`]).
-    pub fn plausible(&self, filter: &dyn StateEstimator) -> bool {
-        self.plausible.iter().all(|&(i, centre, bound)| {
-            let (x, std) = (filter.mean()[i], filter.variance(i).max(0.0).sqrt());
-            (x - centre).abs() <= bound && std <= bound
-        })
+    /// The first state of `filter`'s belief outside its plausible range
+    /// ([`Supervisor::with_plausible_range`]), if any.
+    pub fn outside(&self, filter: &dyn StateEstimator) -> Option<Outside> {
+        self.plausible.first_outside(filter)
     }
 
     /// The settings.
@@ -218,11 +208,6 @@ impl Supervisor {
     /// Re-acquisitions that their rival's evidence undid (`rival.rs`).
     pub fn undone_reacquisitions(&self) -> u64 {
         self.reacquisition.undone
-    }
-
-    /// The channel whose re-acquisition the rival stands against, or last stood against.
-    pub fn undone_trigger(&self) -> Option<usize> {
-        (self.reacquisition.undone > 0 || self.rival.active).then_some(self.rival.trigger)
     }
 
     /// Restarts so far (`restart.rs`).

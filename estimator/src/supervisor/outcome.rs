@@ -24,8 +24,12 @@ pub enum Revision {
     Weighed(f64),
     /// The re-acquired belief won: the rival is dropped.
     Confirmed,
-    /// The rival won: the re-acquisition is undone, and this update is the rival's.
-    Undone,
+    /// The rival won: the re-acquisition that `trigger` (a row of `z`) set
+    /// off is undone, and this update is the rival's.
+    Undone {
+        /// The channel whose failures triggered the re-acquisition.
+        trigger: usize,
+    },
 }
 
 /// The outcome of one gated update.
@@ -84,6 +88,11 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// This update is a rival's that undid a re-acquisition (`rival.rs`).
+    pub fn undone(&self) -> bool {
+        matches!(self.revision, Revision::Undone { .. })
+    }
+
     /// The outcome before any sample, for `m` rows: all missing, nothing done.
     pub(super) fn none(m: usize) -> Self {
         Self {

@@ -131,7 +131,7 @@ impl Supervisor {
     /// window or a belief outside its plausible range, and a window of healthy
     /// samples learnt.
     pub(super) fn restart_due(&self, filter: &dyn StateEstimator) -> bool {
-        let lost = self.reacquisition.lost_run as usize >= self.settings.window || !self.plausible(filter);
+        let lost = self.reacquisition.lost_run as usize >= self.settings.window || self.outside(filter).is_some();
         self.settings.revise && lost && self.climate.learnt >= self.settings.window as u64
     }
 

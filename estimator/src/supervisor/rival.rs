@@ -168,13 +168,13 @@ impl Supervisor {
         let threshold = self.thresholds.adaptation_clip;
         let horizon = self.rival.entries.len() + 1 >= self.settings.window;
         self.pending.revision = if evidence >= threshold || (horizon && evidence > 0.0) {
-            Revision::Undone
+            Revision::Undone { trigger: self.rival.trigger }
         } else if evidence <= -threshold || horizon {
             Revision::Confirmed
         } else {
             Revision::Weighed(delta)
         };
-        if self.pending.revision != Revision::Undone {
+        if !self.pending.undone() {
             return Ok(());
         }
         filter.restore(&self.work.rival_next)?;
@@ -211,7 +211,7 @@ impl Supervisor {
                 std::mem::swap(&mut self.rival.belief, &mut self.work.rival_next);
             }
             Revision::Confirmed => self.rival.active = false,
-            Revision::Undone => {
+            Revision::Undone { .. } => {
                 self.rival.active = false;
                 self.window.replace_latest(&self.rival.entries);
                 self.channels[self.rival.trigger].suspended = true;

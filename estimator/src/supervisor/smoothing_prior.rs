@@ -23,7 +23,6 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::outcome::Revision;
 use super::Supervisor;
 
 /// The factor on a prediction's covariance that cuts its link to the step before.
@@ -42,7 +41,7 @@ impl Supervisor {
         if outcome.reacquired.is_some() {
             *covariance *= outcome.inflation;
         }
-        if outcome.revision == Revision::Undone || outcome.restarted {
+        if outcome.undone() || outcome.restarted {
             *covariance *= CUT;
         }
         if outcome.jump > 0.0 {
