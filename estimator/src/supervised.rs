@@ -68,8 +68,10 @@ pub enum Event {
         /// The sample's instant (s).
         time: f64,
     },
-    /// The filter had used no row for a whole window and restarted from where
-    /// its states had been while it was healthy (`restart.rs`).
+    /// The filter restarted from where its states had been while it was
+    /// healthy (`restart.rs`): it had used no row for a whole window, its
+    /// belief had left its plausible range, or, inconsistent, a challenger
+    /// started there explained the samples better (`rival.rs`).
     Restarted {
         /// The sample's instant (s).
         time: f64,
@@ -431,7 +433,8 @@ impl SupervisedFilter {
             crate::supervisor::Revision::Undone { trigger } => Some(trigger),
             _ => None,
         };
-        if self.supervisor.pending().restarted {
+        let pending = self.supervisor.pending();
+        if pending.restarted || pending.revision == crate::supervisor::Revision::Restarted {
             self.events.push(Event::Restarted { time });
         }
         let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());

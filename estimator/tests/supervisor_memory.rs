@@ -24,10 +24,12 @@ const CHANNEL: [&str; 11] = [
     "step_multiple",
     "step_run",
 ];
-const REACQUISITION: [&str; 6] = ["lost_run", "count", "since_last", "inflation", "undone", "restarts"];
+const REACQUISITION: [&str; 7] =
+    ["lost_run", "count", "since_last", "inflation", "undone", "restarts", "since_challenge"];
 const CURSOR: [&str; 2] = ["next", "filled"];
 const WINDOW_ENTRY: [&str; 2] = ["clipped_ratios", "rows"];
-const RIVAL_HEADER: [&str; 8] = ["active", "trigger", "evidence", "entries", "kind", "time", "inputs", "states"];
+const RIVAL_HEADER: [&str; 9] =
+    ["active", "challenger", "trigger", "evidence", "entries", "kind", "time", "inputs", "states"];
 
 fn position(fields: &[&str], name: &str) -> usize {
     fields.iter().position(|f| *f == name).unwrap_or_else(|| panic!("no field {name}"))
@@ -112,7 +114,7 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 4);
+    assert_eq!(words[header_word("version")], 5);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
@@ -183,7 +185,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 4"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 5"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);

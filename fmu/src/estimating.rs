@@ -344,7 +344,7 @@ impl Estimating {
                 Event::Restarted { time } => (
                     Fmi2Status::Warning,
                     "logStatusWarning",
-                    format!("the filter restarted at t = {time} s: no input had passed the gate for consistency_window samples, or its estimate had left its plausible range; it starts again from where its states have been while it was healthy"),
+                    format!("the filter restarted at t = {time} s: no input had passed the gate for consistency_window samples, its estimate had left its plausible range, or it was inconsistent and a belief started from where its states have been while it was healthy explained the samples better; it goes on from there"),
                 ),
                 Event::Consistent { consistent: false, time } => (
                     Fmi2Status::Warning,

@@ -223,6 +223,9 @@ impl Supervisor {
             // A rival that cannot be predicted or updated is dropped.
             self.pending.revision = Revision::Confirmed;
         }
+        if !self.pending.restarted {
+            self.fork_challenger(filter)?;
+        }
         let mut first_pass = true;
         // No row has been left out by the gate's own tests yet: a re-acquisition
         // may still be decided, or a jump taken.
@@ -299,7 +302,7 @@ impl Supervisor {
     /// The adaptation's evidence: the first pass's clipped normalised
     /// innovations and shares of the rows finally used (`adaptation.rs`).
     fn gather_adaptation_evidence(&mut self) {
-        if self.pending.undone() {
+        if self.pending.replaced() {
             // The update is the rival's: the filter's own first pass says nothing of it.
             (self.pending.adaptation_ratios, self.pending.adaptation_share, self.pending.adaptation_rows) =
                 (0.0, 0.0, 0);

@@ -9,14 +9,15 @@
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
 //!                 suspended, last_value, repeats, step_multiple, step_run
-//! Reacquisition   lost_run, count, since_last, inflation, undone, restarts
+//! Reacquisition   lost_run, count, since_last, inflation, undone, restarts,
+//!                 since_challenge
 //! Cursor          next, filled
 //! WindowEntry × w clipped_ratios, rows
 //! Adaptation      log_scale, mean_ratio
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
-//! RivalHeader     active, trigger, evidence, entries, kind, time, inputs, states
+//! RivalHeader     active, challenger, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! ClimateHeader   learnt, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
@@ -44,7 +45,7 @@ use crate::filter::{FilterKind, Snapshot};
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 4;
+const VERSION: u64 = 5;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -186,6 +187,8 @@ struct ReviewRow {
 struct RivalHeader {
     /// A rival is alive.
     active: bool,
+    /// It is a challenger, not a re-acquisition's rival.
+    challenger: bool,
     /// The channel that triggered the re-acquisition.
     trigger: usize,
     /// The evidence for it so far (nats).
@@ -207,7 +210,7 @@ struct ClimateHeader {
 
 record!(ClimateHeader { learnt, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
-record!(RivalHeader { active, trigger, evidence, entries, kind, time, inputs, states });
+record!(RivalHeader { active, challenger, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
 record!(Adaptation { log_scale, mean_ratio });
 record!(Jumps { taken, retracted });
@@ -224,7 +227,7 @@ record!(Channel {
     step_multiple,
     step_run,
 });
-record!(Reacquisition { lost_run, count, since_last, inflation, undone, restarts });
+record!(Reacquisition { lost_run, count, since_last, inflation, undone, restarts, since_challenge });
 record!(Cursor { next, filled });
 record!(WindowEntry { clipped_ratios, rows });
 
@@ -298,6 +301,7 @@ impl Supervisor {
         let belief = &rival.belief;
         RivalHeader {
             active,
+            challenger: active && rival.challenger,
             trigger: if active { rival.trigger } else { 0 },
             evidence: if active { rival.evidence } else { 0.0 },
             entries: if active { rival.entries.len() } else { 0 },
@@ -519,6 +523,7 @@ impl Supervisor {
             }
         }
         self.rival.active = rival.active;
+        self.rival.challenger = rival.challenger;
         (self.rival.trigger, self.rival.evidence) = (rival.trigger, rival.evidence);
         self.rival.entries.clear();
         self.rival.entries.extend_from_slice(&rival_entries);

@@ -18,7 +18,10 @@
 //!   data decide which belief stays: a burst of gross errors taken in is
 //!   undone.
 //! * **Restart** (`restart.rs`): a filter that has used no row for a whole
-//!   window starts again from where its states have been while it was healthy.
+//!   window, or whose belief has left its plausible range, starts again from
+//!   where its states have been while it was healthy; an inconsistent one is
+//!   challenged by a belief started there, which replaces it if the data
+//!   favour it (`rival.rs`).
 //! * **Quantised bias steps** (optional, [`Supervisor::with_steps`],
 //!   `steps.rs`): a bias that jumps by a known quantum is taken into its bias
 //!   state instead of inflating every state.

@@ -30,6 +30,10 @@ pub enum Revision {
         /// The channel whose failures triggered the re-acquisition.
         trigger: usize,
     },
+    /// The challenger of an inconsistent filter (started from where the
+    /// states have been) won: the filter restarts, and this update is the
+    /// challenger's.
+    Restarted,
 }
 
 /// The outcome of one gated update.
@@ -78,7 +82,10 @@ pub struct Outcome {
     /// A re-acquisition at this sample kept the update the gate alone would
     /// have made as its rival (`rival.rs`).
     pub forked: bool,
-    /// What became of the rival of an earlier re-acquisition.
+    /// The rival forked at this sample is a challenger of the inconsistent
+    /// filter, started from where the states have been (`rival.rs`).
+    pub challenged: bool,
+    /// What became of the rival of an earlier re-acquisition or challenge.
     pub revision: Revision,
     /// The filter restarted at this sample (`restart.rs`) before its update.
     pub restarted: bool,
@@ -91,6 +98,12 @@ impl Outcome {
     /// This update is a rival's that undid a re-acquisition (`rival.rs`).
     pub fn undone(&self) -> bool {
         matches!(self.revision, Revision::Undone { .. })
+    }
+
+    /// This update is a rival's: a re-acquisition undone, or a challenger
+    /// that restarted the filter.
+    pub fn replaced(&self) -> bool {
+        matches!(self.revision, Revision::Undone { .. } | Revision::Restarted)
     }
 
     /// The outcome before any sample, for `m` rows: all missing, nothing done.
@@ -114,6 +127,7 @@ impl Outcome {
             adaptation_share: 0.0,
             adaptation_rows: 0,
             forked: false,
+            challenged: false,
             revision: Revision::None,
             restarted: false,
             watch: vec![(0, 0); m],

@@ -49,14 +49,24 @@ pub(super) struct Reacquisition {
     pub inflation: f64,
     /// Re-acquisitions their rival's evidence undid (`rival.rs`).
     pub undone: u64,
-    /// Restarts (`restart.rs`).
+    /// Restarts (`restart.rs`), a challenger's won included (`rival.rs`).
     pub restarts: u64,
+    /// Samples since a challenger was last alive (`u32::MAX`: none yet).
+    pub since_challenge: u32,
 }
 
 impl Reacquisition {
     /// Before the first sample.
     pub fn new() -> Self {
-        Self { lost_run: 0, count: 0, since_last: u32::MAX, inflation: 1.0, undone: 0, restarts: 0 }
+        Self {
+            lost_run: 0,
+            count: 0,
+            since_last: u32::MAX,
+            inflation: 1.0,
+            undone: 0,
+            restarts: 0,
+            since_challenge: u32::MAX,
+        }
     }
 
     /// Whether a failing pass calls for a re-acquisition, and if so the

@@ -38,6 +38,10 @@
 //!
 //! A restart also ends any re-acquisition rival and jump review, and gives
 //! the re-acquisitions their budget back.
+//!
+//! The same belief challenges a filter that is inconsistent while it still
+//! uses rows (`rival.rs`): there the data, not a rule, decide whether the
+//! filter restarts.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -105,6 +109,21 @@ impl Climate {
     }
 }
 
+impl Climate {
+    /// The belief a restart starts from: each state at its mean, its variance
+    /// four times its spread plus the filter's mean variance of it, no
+    /// correlation (sized by [`Climate::reserve`]).
+    pub fn restart_belief(&mut self) -> &Gaussian {
+        let restart = &mut self.restart;
+        restart.covariance.fill(0.0);
+        for i in 0..self.mean.len() {
+            restart.mean[i] = self.mean[i];
+            restart.covariance[(i, i)] = 4.0 * self.variance[i] + self.doubt[i];
+        }
+        &self.restart
+    }
+}
+
 impl Supervisor {
     /// Counts a restart of the pending outcome, or learns from its belief when
     /// the sample is healthy (before the consistency window takes the sample).
@@ -138,16 +157,8 @@ impl Supervisor {
     /// Restarts `filter` at the belief before the gate's time and input from
     /// the climate (see the module documentation); that belief becomes `before`.
     pub(super) fn restart(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
-        let before = &self.work.before;
-        let n = before.mean.len();
-        let climate = &mut self.climate;
-        let restart = &mut climate.restart;
-        restart.covariance.fill(0.0);
-        for i in 0..n {
-            restart.mean[i] = climate.mean[i];
-            restart.covariance[(i, i)] = 4.0 * climate.variance[i] + climate.doubt[i];
-        }
-        let (time, restart) = (before.time, &climate.restart);
+        let time = self.work.before.time;
+        let restart = self.climate.restart_belief();
         let restarted = filter.reset(time, restart).and_then(|()| filter.hold_input(&self.work.before.input));
         if let Err(e) = restarted {
             filter.restore(&self.work.before)?;

@@ -30,6 +30,20 @@
 //! * **The re-acquired belief wins** (the state had moved): the rival is
 //!   dropped, nothing else changes.
 //!
+//! **Challengers.** Some episodes never trigger a re-acquisition: the gate
+//! lets a unit error through (S1's z₂ read ×9.81 for 0.1 s), or a jump takes
+//! it; the state is dragged and, once the inputs are clean, one channel fails
+//! the gate for good while the filter stays inconsistent. No re-acquisition's
+//! rival holds the belief from before. So an inconsistent filter (its
+//! windowed NIS beyond its bound) is challenged, at most once per window: a
+//! belief started from where the states have been while the filter was
+//! healthy (`restart.rs`, the restart's belief), updated with the sample's
+//! rows under its own gate, becomes the rival, and is weighed in the same
+//! way. It must lead by `c` nats to win; on a near tie at the window's end
+//! the filter is kept. If it wins the filter restarts at its belief
+//! ([`Revision::Restarted`]): the filter, not its sensors, was wrong, so
+//! every suspended channel is taken back.
+//!
 //! The cost is a second predict and update per sample while a rival lives
 //! (at most a window), none otherwise.
 
@@ -45,6 +59,9 @@ use crate::filter::{Innovation, Snapshot, StateEstimator};
 pub(super) struct Rival {
     /// A rival is alive.
     pub active: bool,
+    /// It is a challenger (started from where the states have been), not a
+    /// re-acquisition's rival.
+    pub challenger: bool,
     /// The channel whose failures triggered the re-acquisition.
     pub trigger: usize,
     /// The evidence so far for the rival over the re-acquired belief (nats).
@@ -58,7 +75,14 @@ pub(super) struct Rival {
 impl Rival {
     /// None, for a window of `window` samples.
     pub fn new(window: usize) -> Self {
-        Self { active: false, trigger: 0, evidence: 0.0, belief: empty_snapshot(), entries: Vec::with_capacity(window) }
+        Self {
+            active: false,
+            challenger: false,
+            trigger: 0,
+            evidence: 0.0,
+            belief: empty_snapshot(),
+            entries: Vec::with_capacity(window),
+        }
     }
 }
 
@@ -87,7 +111,7 @@ impl Supervisor {
         filter: &mut dyn StateEstimator,
         failing: impl Fn(usize, f64) -> bool,
     ) -> Result<(), FilterError> {
-        if !self.settings.revise || self.rival.active {
+        if !self.settings.revise || self.rival.active || self.pending.forked {
             return Ok(());
         }
         let work = &mut self.work;
@@ -110,20 +134,58 @@ impl Supervisor {
     /// leaves the filter at `before`. `false` when it cannot be predicted or
     /// updated: it is then dropped.
     pub(super) fn step_rival(&mut self, filter: &mut dyn StateEstimator) -> Result<bool, FilterError> {
-        let (clip, row) = (self.thresholds.adaptation_clip, self.thresholds.row);
-        let gate_clip = row.min(1e6);
         let work = &mut self.work;
         let belief = &self.rival.belief;
         let dt = work.before.time - belief.time;
-        let first = |filter: &mut dyn StateEstimator, predicted: &mut Snapshot| {
-            filter
-                .restore(belief)
-                .and_then(|()| if dt > 0.0 { filter.predict(&belief.input, dt) } else { Ok(()) })
-                .and_then(|()| filter.hold_input(&work.before.input))
-                .map(|()| filter.snapshot_into(predicted))
-                .and_then(|()| filter.update(&work.z_gated).map(|_| ()))
-        };
-        if first(filter, &mut work.alternative).is_err() {
+        let predicted = filter
+            .restore(belief)
+            .and_then(|()| if dt > 0.0 { filter.predict(&belief.input, dt) } else { Ok(()) })
+            .and_then(|()| filter.hold_input(&work.before.input));
+        if predicted.is_err() {
+            filter.restore(&work.before)?;
+            return Ok(false);
+        }
+        self.update_rival(filter)
+    }
+
+    /// Starts a challenger (see the module documentation) at this sample when
+    /// one is due: its belief from where the states have been, updated with
+    /// this sample's rows (its own gate), becomes the rival to be. Leaves the
+    /// filter at `before`.
+    pub(super) fn fork_challenger(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        let due = self.settings.revise
+            && !self.rival.active
+            && !self.consistent()
+            && !self.channels.iter().any(|c| c.suspended)
+            && self.reacquisition.since_challenge as usize >= self.settings.window
+            && self.climate.learnt >= self.settings.window as u64;
+        if !due {
+            return Ok(());
+        }
+        let restart = self.climate.restart_belief();
+        let started =
+            filter.reset(self.work.before.time, restart).and_then(|()| filter.hold_input(&self.work.before.input));
+        if started.is_err() {
+            return filter.restore(&self.work.before);
+        }
+        if self.update_rival(filter)? {
+            self.pending.forked = true;
+            self.pending.challenged = true;
+        }
+        Ok(())
+    }
+
+    /// Updates the rival's belief, which the filter holds predicted to this
+    /// sample, with this sample's rows and scores it: its first pass's robust
+    /// log-likelihood and window entry, then its own gate (a row failing its
+    /// χ²(1) test is left out); the result in `work.rival_next`. Leaves the
+    /// filter at `before`; `false` when the update fails.
+    fn update_rival(&mut self, filter: &mut dyn StateEstimator) -> Result<bool, FilterError> {
+        let (clip, row) = (self.thresholds.adaptation_clip, self.thresholds.row);
+        let gate_clip = row.min(1e6);
+        let work = &mut self.work;
+        filter.snapshot_into(&mut work.alternative);
+        if filter.update(&work.z_gated).is_err() {
             filter.restore(&work.before)?;
             return Ok(false);
         }
@@ -131,7 +193,6 @@ impl Supervisor {
         let mut clipped = 0.0;
         work.rival_score = score(innovation, clip, gate_clip, &mut clipped);
         work.rival_entry = WindowEntry { clipped_ratios: clipped, rows: innovation.rows_used() };
-        // Its own gate: the rows failing their χ²(1) test are left out.
         work.z_hypothesis.copy_from_slice(&work.z_gated);
         work.rival_rows.copy_from_slice(&self.pending.rows);
         let mut left_out = false;
@@ -167,14 +228,18 @@ impl Supervisor {
         let evidence = self.rival.evidence + delta;
         let threshold = self.thresholds.adaptation_clip;
         let horizon = self.rival.entries.len() + 1 >= self.settings.window;
-        self.pending.revision = if evidence >= threshold || (horizon && evidence > 0.0) {
+        // A challenger must lead clearly: the incumbent is kept on a near tie.
+        let ahead = evidence >= threshold || (horizon && evidence > 0.0 && !self.rival.challenger);
+        self.pending.revision = if ahead && self.rival.challenger {
+            Revision::Restarted
+        } else if ahead {
             Revision::Undone { trigger: self.rival.trigger }
         } else if evidence <= -threshold || horizon {
             Revision::Confirmed
         } else {
             Revision::Weighed(delta)
         };
-        if !self.pending.undone() {
+        if !self.pending.replaced() {
             return Ok(());
         }
         filter.restore(&self.work.rival_next)?;
@@ -195,8 +260,12 @@ impl Supervisor {
     /// Counts the pending outcome's fork or revision (before the consistency
     /// window takes the sample).
     pub(super) fn commit_rival(&mut self) {
+        let reacquisition = &mut self.reacquisition;
+        let challenging = self.rival.active && self.rival.challenger;
+        reacquisition.since_challenge = if challenging { 0 } else { reacquisition.since_challenge.saturating_add(1) };
         if self.pending.forked {
             self.rival.active = true;
+            self.rival.challenger = self.pending.challenged;
             self.rival.trigger = self.pending.reacquired.unwrap_or(0);
             self.rival.evidence = 0.0;
             self.rival.entries.clear();
@@ -217,6 +286,18 @@ impl Supervisor {
                 self.channels[self.rival.trigger].suspended = true;
                 self.review.active = false;
                 self.reacquisition.undone = self.reacquisition.undone.saturating_add(1);
+            }
+            Revision::Restarted => {
+                // The filter, not its sensors, was wrong: every suspension is lifted.
+                self.rival.active = false;
+                self.window.replace_latest(&self.rival.entries);
+                for channel in &mut self.channels {
+                    channel.suspended = false;
+                }
+                self.review.active = false;
+                let reacquisition = &mut self.reacquisition;
+                reacquisition.restarts = reacquisition.restarts.saturating_add(1);
+                reacquisition.inflation = 1.0;
             }
         }
     }

@@ -41,7 +41,7 @@ impl Supervisor {
         if outcome.reacquired.is_some() {
             *covariance *= outcome.inflation;
         }
-        if outcome.undone() || outcome.restarted {
+        if outcome.replaced() || outcome.restarted {
             *covariance *= CUT;
         }
         if outcome.jump > 0.0 {

@@ -41,6 +41,9 @@ pub struct Args {
     /// Run only the batches K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
+    /// Also list every episode not recovered within the bound, with what it did.
+    #[arg(long)]
+    pub list_unrecovered: bool,
 }
 
 /// Episodes per batch: a batch loads the FMU once.
@@ -117,7 +120,7 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
         .collect();
     let batches: Vec<&[Episode]> = episodes.chunks(BATCH).collect();
     let rms = bench.rms();
-    let results = shard::run(&batches, args.shard, |batch| -> anyhow::Result<Vec<(FaultKind, Verdict)>> {
+    let results = shard::run(&batches, args.shard, |batch| -> anyhow::Result<Vec<(Episode, Verdict)>> {
         let fmu = ImportedFmu::load(&path)?;
         batch
             .iter()
@@ -127,14 +130,18 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
                 let horizon = episode.end() + after;
                 let faulty =
                     bench.drive(&fmu, Some(&z), horizon).with_context(|| format!("{}: {episode:?}", bench.study))?;
-                Ok((episode.kind, judge(bench, &clean, &faulty, episode, &scale, window, horizon)))
+                Ok((episode.clone(), judge(bench, &clean, &faulty, episode, &scale, window, horizon)))
             })
             .collect()
     });
     let mut by_kind: BTreeMap<FaultKind, Vec<Verdict>> = BTreeMap::new();
+    let mut unrecovered = Vec::new();
     for (_, batch) in results {
-        for (kind, verdict) in batch? {
-            by_kind.entry(kind).or_default().push(verdict);
+        for (episode, verdict) in batch? {
+            if !verdict.recovery.is_some_and(|t| t <= bench.bound) {
+                unrecovered.push((episode.clone(), verdict.clone()));
+            }
+            by_kind.entry(episode.kind).or_default().push(verdict);
         }
     }
     let clean_flags = (warm..clean.faulty.len()).filter(|&k| clean.faulty[k].iter().any(|&f| f)).count();
@@ -187,6 +194,25 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
             lost,
             disagree as f64 / judged.max(1) as f64
         );
+    }
+    if args.list_unrecovered {
+        for (episode, verdict) in &unrecovered {
+            let _ = writeln!(
+                out,
+                "    not recovered: {} on {} from {:.3} s for {} samples, size {:.3e}{}: recovery {}, error after {:.2}, \
+                 {} lost steps{}",
+                episode.kind,
+                episode.channels.iter().map(|&c| bench.inputs[c]).collect::<Vec<_>>().join("+"),
+                episode.start as f64 * bench.dt,
+                episode.length,
+                episode.size,
+                if episode.alternating { " alternating" } else { "" },
+                verdict.recovery.map_or("never".into(), |t| format!("{t:.3} s")),
+                verdict.error_after,
+                verdict.warnings,
+                if verdict.failed { ", failed" } else { "" }
+            );
+        }
     }
     Ok(out)
 }
