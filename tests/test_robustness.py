@@ -80,3 +80,33 @@ def test_two_shards_run_every_episode_once(kalfmu_bin, fmu_dir):
     counted = {kind: sum(h.get(kind, (0, 0))[1] for h in halves) for kind in set(halves[0]) | set(halves[1])}
     whole = tables(robustness(kalfmu_bin, fmu_dir, "--studies", "s1"))["S1"]
     assert counted == {kind: n for kind, (_, n) in whole.items()}
+
+
+def test_wiring_mistakes_are_named_where_the_inputs_contradict_each_other_and_make_the_filter_unhealthy_elsewhere(
+    kalfmu_bin, fmu_dir
+):
+    """`--wiring` on S4 (four telegrams of one position: the flipped one is
+    named within 2 s and no right one is blamed) and S2 (an axle box's own
+    force follows it: nothing is named, but a flipped input whose estimate
+    leaves its σ makes the filter unhealthy within 2 s)."""
+    out = subprocess.run(
+        [str(kalfmu_bin), "robustness", "--fmu-dir", str(fmu_dir), "--wiring", "--studies", "s2,s4"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    rows: dict[tuple[str, str], tuple[int, ...]] = {}
+    study = None
+    for line in out.splitlines():
+        header = re.match(r"^(S\d) \(.*clean run: (\d+) samples", line)
+        if header:
+            study = header.group(1)
+            assert header.group(2) == "0", line
+            continue
+        row = re.match(r"^  (\S+(?: \S+)?)\s+(\d+)\s+(\d+) of (\d+)\s+\S+(?: s)?\s+(\d+)\s+(\d+)\s+(\d+) of (\d+)", line)
+        if study and row:
+            rows[(study, row.group(1))] = tuple(int(g) for g in row.groups()[1:])
+    runs, named, _, blamed, beyond, unhealthy, _ = rows[("S4", "flipped")]
+    assert named == runs == 4 and blamed == 0, out
+    runs, named, _, blamed, beyond, unhealthy, _ = rows[("S2", "flipped")]
+    assert named == 0 and blamed == 0 and beyond > 0 and unhealthy == beyond, out

@@ -76,6 +76,24 @@ pub enum Event {
         /// The sample's instant (s).
         time: f64,
     },
+    /// A channel's wiring became inconsistent with the other channels, or
+    /// consistent again (`wiring.rs`).
+    Wiring {
+        /// The channel (row of `z`).
+        channel: usize,
+        /// Inconsistent from now on (`true`) or taken back (`false`).
+        inconsistent: bool,
+        /// Left out of the updates while it is inconsistent (`true`), or kept
+        /// with the filter inconsistent ([`SupervisorSettings::wiring_leaves_out`](crate::SupervisorSettings::wiring_leaves_out)).
+        left_out: bool,
+        /// What its innovations say it reads: its scale
+        /// ([`Channel::wiring_fit`](crate::Channel::wiring_fit)).
+        scale: f64,
+        /// And its mean innovation, in its unit.
+        offset: f64,
+        /// The sample's instant (s).
+        time: f64,
+    },
     /// The filter became inconsistent (`false`) or consistent again (`true`).
     Consistent {
         /// The new consistency flag.
@@ -157,6 +175,8 @@ pub struct SupervisedFilter {
     /// NIS of the latest committed update (kept here: a restored belief has no innovation).
     nis: f64,
     events: Vec<Event>,
+    /// Each channel's wiring verdict before the commit, to report its changes.
+    inconsistent: Vec<bool>,
     smoothing: Option<Box<Smoothing>>,
 }
 
@@ -181,7 +201,15 @@ impl SupervisedFilter {
         let m = filter.measurement_dim();
         crate::error::check_len("supervisor channels", m, supervisor.channels().len())?;
         let nis = filter.innovation().nis();
-        Ok(Self { filter, supervisor, skipped: 0, nis, events: Vec::with_capacity(2 * m + 3), smoothing: None })
+        Ok(Self {
+            filter,
+            supervisor,
+            skipped: 0,
+            nis,
+            events: Vec::with_capacity(3 * m + 3),
+            inconsistent: vec![false; m],
+            smoothing: None,
+        })
     }
 
     /// From now on keeps of each prediction the [`Transition`] a smoother
@@ -439,7 +467,18 @@ impl SupervisedFilter {
         }
         let (was_consistent, was_exhausted) = (self.supervisor.consistent(), self.supervisor.exhausted());
         let events = &mut self.events;
+        for (before, channel) in self.inconsistent.iter_mut().zip(self.supervisor.channels()) {
+            *before = channel.inconsistent;
+        }
         self.supervisor.commit(|FaultChange { channel, faulty }| events.push(Event::Fault { channel, faulty, time }));
+        for (channel, (state, &before)) in self.supervisor.channels().iter().zip(&self.inconsistent).enumerate() {
+            if state.inconsistent != before {
+                let (scale, offset) = state.wiring_fit();
+                let left_out = self.supervisor.settings().wiring_leaves_out;
+                let inconsistent = state.inconsistent;
+                self.events.push(Event::Wiring { channel, inconsistent, left_out, scale, offset, time });
+            }
+        }
         if let Some(channel) = undone {
             self.events.push(Event::ReacquisitionUndone { channel, time });
         }

@@ -11,7 +11,7 @@ use estimator::{build_filter, FilterKind, Noise, StateEstimator, Supervisor, Sup
 
 /// The layout as documented in `supervisor/memory.rs`, by field name.
 const HEADER: [&str; 5] = ["tag", "version", "channels", "channel_words", "window"];
-const CHANNEL: [&str; 11] = [
+const CHANNEL: [&str; 28] = [
     "bad_run",
     "rejected_run",
     "faulty",
@@ -23,6 +23,23 @@ const CHANNEL: [&str; 11] = [
     "repeats",
     "step_multiple",
     "step_run",
+    "inconsistent",
+    "wiring_run",
+    "bias_evidence",
+    "bias_weight",
+    "scale_evidence",
+    "scale_weight",
+    "scale_norm",
+    "offset_sum",
+    "offset_weight",
+    "fit_evidence",
+    "fit_e",
+    "fit_g",
+    "fit_norm",
+    "fit_offset",
+    "fit_weight",
+    "prediction_mean",
+    "predictions",
 ];
 const REACQUISITION: [&str; 7] =
     ["lost_run", "count", "since_last", "inflation", "undone", "restarts", "since_challenge"];
@@ -114,7 +131,7 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 5);
+    assert_eq!(words[header_word("version")], 6);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
@@ -185,7 +202,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 5"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 6"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);

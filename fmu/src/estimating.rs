@@ -313,6 +313,9 @@ impl Estimating {
         let input = |row: usize| {
             self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).map_or("?", |v| &v.name)
         };
+        let unit = |row: usize| {
+            self.descriptor.variables.iter().find(|v| v.role == Role::Measurement(row)).and_then(|v| v.unit)
+        };
         // An intermittent input (a marker) is missing most of the time: its flag says nothing.
         let intermittent =
             |row: usize| self.descriptor.variables.iter().any(|v| v.role == Role::Measurement(row) && v.intermittent);
@@ -345,6 +348,26 @@ impl Estimating {
                     Fmi2Status::Warning,
                     "logStatusWarning",
                     format!("the filter restarted at t = {time} s: no input had passed the gate for consistency_window samples, its estimate had left its plausible range, or it was inconsistent and a belief started from where its states have been while it was healthy explained the samples better; it goes on from there"),
+                ),
+                Event::Wiring { channel, inconsistent: true, left_out: true, scale, offset, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("input {} is inconsistent with the other inputs from t = {time} s and is left out of the updates (its status is 5, inconsistent): {}; check its wiring", input(channel), crate::wiring_cause::likely_cause(scale, offset, unit(channel))),
+                ),
+                Event::Wiring { channel, inconsistent: true, left_out: false, scale, offset, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("the innovations of input {} disagree with the other inputs from t = {time} s: {}; either its wiring is wrong, or that of an input whose unknown input follows it (the data cannot say which), and the filter is inconsistent (filter_healthy is false) until they agree; check the wiring of {} and of the inputs beside it", input(channel), crate::wiring_cause::likely_cause(scale, offset, unit(channel)), input(channel)),
+                ),
+                Event::Wiring { channel, inconsistent: false, left_out: true, time, .. } => (
+                    Fmi2Status::Ok,
+                    "logEvents",
+                    format!("input {} agrees with the other inputs again at t = {time} s and is used again", input(channel)),
+                ),
+                Event::Wiring { channel, inconsistent: false, left_out: false, time, .. } => (
+                    Fmi2Status::Ok,
+                    "logEvents",
+                    format!("the innovations of input {} agree with the other inputs again at t = {time} s", input(channel)),
                 ),
                 Event::Consistent { consistent: false, time } => (
                     Fmi2Status::Warning,
@@ -574,6 +597,9 @@ pub fn build_supervisor(
         adaptation_window: count("adaptation_window")? as usize,
         min_process_noise_scale: p.get("min_process_noise_scale")?,
         max_process_noise_scale: p.get("max_process_noise_scale")?,
+        // Not a parameter: on only where the FMU's inputs contradict each other directly (S4).
+        wiring_sigmas: descriptor.supervision.wiring_sigmas,
+        wiring_leaves_out: descriptor.supervision.wiring_leaves_out,
         ..SupervisorSettings::default()
     };
     let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())

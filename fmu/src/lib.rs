@@ -36,6 +36,7 @@ pub mod simulating;
 pub mod state;
 pub mod timing;
 pub mod variables;
+mod wiring_cause;
 
 use std::ffi::{c_char, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};

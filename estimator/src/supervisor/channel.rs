@@ -5,7 +5,7 @@ use super::outcome::{FaultChange, RowOutcome};
 use super::settings::SupervisorSettings;
 
 /// The state of one measurement channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Channel {
     /// Consecutive samples rejected, stuck or missing.
     pub bad_run: u32,
@@ -30,6 +30,30 @@ pub struct Channel {
     pub(super) step_multiple: i64,
     /// How many samples in a row they sat there.
     pub(super) step_run: u32,
+    /// Its wiring is inconsistent with the other channels (`wiring.rs`):
+    /// left out of the updates until its scores are back.
+    pub inconsistent: bool,
+    /// Consecutive samples its wiring score has been above the threshold.
+    pub(super) wiring_run: u32,
+    // The wiring scores' forgetting sums (`wiring.rs`): the bias score's
+    // evidence and weight, the scale score's, its `Σλ·g²`, the mean
+    // normalised innovation's sum and weight; the faster fit's six sums;
+    // the mean prediction and how many predictions it has seen.
+    pub(super) bias_evidence: f64,
+    pub(super) bias_weight: f64,
+    pub(super) scale_evidence: f64,
+    pub(super) scale_weight: f64,
+    pub(super) scale_norm: f64,
+    pub(super) offset_sum: f64,
+    pub(super) offset_weight: f64,
+    pub(super) fit_evidence: f64,
+    pub(super) fit_e: f64,
+    pub(super) fit_g: f64,
+    pub(super) fit_norm: f64,
+    pub(super) fit_offset: f64,
+    pub(super) fit_weight: f64,
+    pub(super) prediction_mean: f64,
+    pub(super) predictions: u64,
 }
 
 impl Channel {

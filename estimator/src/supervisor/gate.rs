@@ -82,6 +82,11 @@ pub(super) struct Workspace {
     pub residuals: Vec<f64>,
     /// The first pass's normalised innovations, by row (NaN where not available).
     first_ratios: Vec<f64>,
+    /// The first pass's innovation variances `Sᵢᵢ`, by row (NaN where not
+    /// available); with `residuals`, what the wiring checks learn from.
+    pub first_variances: Vec<f64>,
+    /// `z` with only the inconsistent channels' rows, for their prediction (`wiring.rs`).
+    pub z_probe: Vec<f64>,
     /// The first pass's shares `(Sᵢᵢ − rᵢ)/Sᵢᵢ`, by row.
     shares: Vec<f64>,
     /// Rows whose failure a jump explains, and failing rows it does not (`jump.rs`).
@@ -125,6 +130,8 @@ impl Workspace {
             gains: vec![f64::NAN; m],
             residuals: vec![f64::NAN; m],
             first_ratios: vec![f64::NAN; m],
+            first_variances: vec![f64::NAN; m],
+            z_probe: vec![f64::NAN; m],
             shares: vec![0.0; m],
             explained: vec![false; m],
             unexplained: vec![false; m],
@@ -218,6 +225,7 @@ impl Supervisor {
         if self.restart_due(filter) {
             self.restart(filter)?;
         }
+        self.probe_inconsistent(filter)?;
         let rival = !self.pending.restarted && self.rival.active && self.settings.revise && self.step_rival(filter)?;
         if self.rival.active && !rival {
             // A rival that cannot be predicted or updated is dropped.
@@ -327,6 +335,7 @@ impl Supervisor {
     fn offer(&mut self, z: &[f64]) {
         self.z_offered.copy_from_slice(z);
         self.work.z_gated.copy_from_slice(z);
+        self.work.z_probe.fill(f64::NAN);
         let stuck_after = self.settings.stuck_after;
         for (c, (row, &v)) in self.pending.rows.iter_mut().zip(z).enumerate() {
             *row = if !v.is_finite() {
@@ -334,6 +343,10 @@ impl Supervisor {
             } else if self.channels[c].is_stuck_at(v, stuck_after) {
                 self.work.z_gated[c] = f64::NAN;
                 RowOutcome::Stuck
+            } else if self.channels[c].inconsistent && self.settings.wiring_leaves_out {
+                self.work.z_gated[c] = f64::NAN;
+                self.work.z_probe[c] = v;
+                RowOutcome::Inconsistent
             } else {
                 RowOutcome::Used
             };
@@ -356,6 +369,25 @@ impl Supervisor {
         self.work.main_score = 0.0;
         self.work.residuals.fill(f64::NAN);
         self.work.first_ratios.fill(f64::NAN);
+        self.work.first_variances.fill(f64::NAN);
+    }
+
+    /// The prediction of the inconsistent channels' rows from the belief
+    /// before the update (an update with those rows alone, undone), into the
+    /// first pass's residuals and variances: they are left out of the
+    /// updates, but the wiring checks go on scoring them (`wiring.rs`).
+    fn probe_inconsistent(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        if self.work.z_probe.iter().all(|v| v.is_nan()) {
+            return Ok(());
+        }
+        if filter.update(&self.work.z_probe).is_ok() {
+            let innovation = filter.innovation();
+            for &r in innovation.rows() {
+                self.work.residuals[r] = innovation.residual()[r];
+                self.work.first_variances[r] = innovation.covariance()[(r, r)];
+            }
+        }
+        filter.restore(&self.work.before)
     }
 
     /// Updates `filter` with the rows not left out and tests the rows used;
@@ -396,6 +428,7 @@ impl Supervisor {
             for &r in &work.rows {
                 work.residuals[r] = innovation.residual()[r];
                 work.first_ratios[r] = work.ratios[r];
+                work.first_variances[r] = work.variances[r];
                 work.shares[r] = (1.0 - r_given[(r, r)] / work.variances[r]).clamp(0.0, 1.0);
             }
         }

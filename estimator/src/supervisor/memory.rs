@@ -8,7 +8,10 @@
 //! ```text
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
-//!                 suspended, last_value, repeats, step_multiple, step_run
+//!                 suspended, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
+//!                 bias_evidence, bias_weight, scale_evidence, scale_weight, scale_norm,
+//!                 offset_sum, offset_weight, fit_evidence, fit_e, fit_g, fit_norm, fit_offset, fit_weight,
+//!                 prediction_mean, predictions
 //! Reacquisition   lost_run, count, since_last, inflation, undone, restarts,
 //!                 since_challenge
 //! Cursor          next, filled
@@ -45,7 +48,7 @@ use crate::filter::{FilterKind, Snapshot};
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 5;
+const VERSION: u64 = 6;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -226,6 +229,23 @@ record!(Channel {
     repeats,
     step_multiple,
     step_run,
+    inconsistent,
+    wiring_run,
+    bias_evidence,
+    bias_weight,
+    scale_evidence,
+    scale_weight,
+    scale_norm,
+    offset_sum,
+    offset_weight,
+    fit_evidence,
+    fit_e,
+    fit_g,
+    fit_norm,
+    fit_offset,
+    fit_weight,
+    prediction_mean,
+    predictions,
 });
 record!(Reacquisition { lost_run, count, since_last, inflation, undone, restarts, since_challenge });
 record!(Cursor { next, filled });
@@ -568,11 +588,28 @@ mod tests {
             repeats: 9,
             step_multiple: -3,
             step_run: 11,
+            inconsistent: true,
+            wiring_run: 12,
+            bias_evidence: -13.5,
+            bias_weight: 14.0,
+            scale_evidence: 15.0,
+            scale_weight: 16.0,
+            scale_norm: 17.0,
+            offset_sum: 19.0,
+            offset_weight: 20.0,
+            fit_evidence: 20.5,
+            fit_e: 20.0625,
+            fit_g: -20.03125,
+            fit_norm: 20.25,
+            fit_offset: -20.75,
+            fit_weight: 20.125,
+            prediction_mean: -21.0,
+            predictions: 22,
         };
         let mut words = Vec::new();
         channel.save(&mut words);
         assert_eq!(words.len(), Channel::WORDS);
-        assert_eq!(words.len(), 11);
+        assert_eq!(words.len(), 28);
         assert_eq!(Channel::load(&words, "channel 0").unwrap(), channel);
     }
 

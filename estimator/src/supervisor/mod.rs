@@ -30,6 +30,9 @@
 //! * **Jumps** (`jump.rs`): a failing row that a jump of the unknown inputs
 //!   explains is model mismatch, not a fault: it is used, from `P + c·Q`, and
 //!   the next sample reviews whether it was a spike after all.
+//! * **Wiring** (`wiring.rs`): a channel whose innovations follow its own
+//!   prediction (a sign, a unit) or sit off zero (gravity left in), which
+//!   the other channels contradict, is inconsistent and left out.
 //! * **Adaptation** (`adaptation.rs`): a bounded, forgetting scale on `Q`
 //!   learnt from the normalised innovations of the rows used.
 //!
@@ -54,6 +57,7 @@ mod rival;
 mod settings;
 mod smoothing_prior;
 mod steps;
+mod wiring;
 
 pub use channel::Channel;
 pub use outcome::{FaultChange, Outcome, Revision, RowOutcome};
@@ -223,9 +227,13 @@ impl Supervisor {
         self.rival.active
     }
 
-    /// The windowed normalised innovations are within their bound (see the module documentation).
+    /// The windowed normalised innovations are within their bound (see the
+    /// module documentation), and no channel kept in the updates has an
+    /// inconsistent wiring (`wiring.rs`). The supervisor's own decisions
+    /// (challengers, what a restart learns) follow the window alone, so that
+    /// a wiring check that only names changes no estimate.
     pub fn consistent(&self) -> bool {
-        self.window.consistent()
+        self.window.consistent() && (self.settings.wiring_leaves_out || !self.channels.iter().any(|c| c.inconsistent))
     }
 
     /// Every available row has been rejected for the last samples: the filter
@@ -293,7 +301,8 @@ impl Supervisor {
                 changed(change);
             }
         }
-        self.reacquisition.count(outcome, self.settings.max_inflation);
+        self.commit_wiring();
+        self.reacquisition.count(&self.pending, self.settings.max_inflation);
         self.commit_rival();
         self.commit_restart();
         let outcome = &self.pending;

@@ -12,6 +12,8 @@ pub enum RowOutcome {
     Rejected,
     /// Repeated its value `stuck_after` times: left out.
     Stuck,
+    /// Its wiring is inconsistent with the other channels (`wiring.rs`): left out.
+    Inconsistent,
 }
 
 /// What became of the rival a re-acquisition set aside (`rival.rs`) at a sample.

@@ -139,7 +139,7 @@ impl Supervisor {
         }
         // Healthy: consistent, every row offered used, nothing under revision.
         let whole = !self.pending.rows.contains(&super::outcome::RowOutcome::Rejected);
-        let healthy = self.consistent() && self.pending.dof > 0 && whole && !self.rival.active;
+        let healthy = self.window.consistent() && self.pending.dof > 0 && whole && !self.rival.active;
         if healthy && self.pending.revision == super::outcome::Revision::None {
             let work = &self.work;
             self.climate.learn(&work.posterior, &work.posterior_variance, MEMORY_WINDOWS * self.settings.window);

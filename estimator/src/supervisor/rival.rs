@@ -155,7 +155,7 @@ impl Supervisor {
     pub(super) fn fork_challenger(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
         let due = self.settings.revise
             && !self.rival.active
-            && !self.consistent()
+            && !self.window.consistent()
             && !self.channels.iter().any(|c| c.suspended)
             && self.reacquisition.since_challenge as usize >= self.settings.window
             && self.climate.learnt >= self.settings.window as u64;

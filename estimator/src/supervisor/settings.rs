@@ -54,6 +54,20 @@ pub struct SupervisorSettings {
     /// (wider bounds let S2's filter, whose innovations are small for reasons
     /// no scale on `Q` reaches, drive its `Q` down until its weld is lost).
     pub max_process_noise_scale: f64,
+    /// The wiring scores' threshold (`wiring.rs`): a channel whose bias or
+    /// scale score passes it is inconsistent. Infinite (the default) turns the
+    /// check off; 8 for standard-normal scores.
+    pub wiring_sigmas: f64,
+    /// What an inconsistent channel's verdict does (`wiring.rs`). `true`: the
+    /// worst one is left out, while at most a third of the channels pass;
+    /// right only where the channels contradict each other directly (S4's
+    /// telegrams of one position). `false` (the default): every channel
+    /// that passes is named, stays in the updates, and the filter is
+    /// inconsistent while one does; where a free unknown input follows a
+    /// channel (S2's and S3's axle boxes, each with its own wheel force) the
+    /// other channels show its mistake, and leaving out the worst would
+    /// blame them (docs/supervisor.md § Wiring checks).
+    pub wiring_leaves_out: bool,
 }
 
 impl Default for SupervisorSettings {
@@ -73,6 +87,8 @@ impl Default for SupervisorSettings {
             adaptation_window: 200,
             min_process_noise_scale: 1e-2,
             max_process_noise_scale: 1e2,
+            wiring_sigmas: f64::INFINITY,
+            wiring_leaves_out: false,
         }
     }
 }
@@ -99,6 +115,9 @@ impl SupervisorSettings {
         if !(self.max_inflation >= 1.0 && self.max_inflation.is_finite()) {
             return bad(format!("max_inflation must be finite and at least 1, got {}", self.max_inflation));
         }
+        if self.wiring_sigmas.is_nan() || self.wiring_sigmas <= 0.0 {
+            return bad(format!("wiring_sigmas must be positive, got {}", self.wiring_sigmas));
+        }
         let (low, high) = (self.min_process_noise_scale, self.max_process_noise_scale);
         if !(low > 0.0 && low <= 1.0 && high >= 1.0 && high.is_finite()) {
             return bad(format!(
@@ -115,9 +134,9 @@ impl SupervisorSettings {
     }
 
     /// These settings as the supervisor was before it learnt `Q`, told
-    /// jumps from faults and revised its re-acquisitions: every failing row
-    /// rejected, `Q` as given, a re-acquisition final.
+    /// jumps from faults, revised its re-acquisitions and checked the
+    /// wiring: every failing row rejected, `Q` as given, a re-acquisition final.
     pub fn fixed(self) -> Self {
-        Self { jumps: false, revise: false, adaptation_window: 0, ..self }
+        Self { jumps: false, revise: false, adaptation_window: 0, wiring_sigmas: f64::INFINITY, ..self }
     }
 }

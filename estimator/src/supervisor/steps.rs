@@ -58,7 +58,7 @@ impl QuantizedSteps {
         let committed = (channel.step_multiple, channel.step_run);
         match row {
             RowOutcome::Used => (0, 0),
-            RowOutcome::Missing | RowOutcome::Stuck => committed,
+            RowOutcome::Missing | RowOutcome::Stuck | RowOutcome::Inconsistent => committed,
             RowOutcome::Rejected => {
                 let multiple = (residual / self.quantum).round();
                 let near = (residual - multiple * self.quantum).abs() <= self.tolerance;

@@ -225,6 +225,12 @@ pub static INPUT_STATUS: EnumerationType = EnumerationType {
         (2, "rejected", "the innovation gate rejected the input: left out of the update, a gross error"),
         (3, "missing", "the input was NaN, infinite or never set (or no update has been made yet): left out"),
         (4, "stuck", "the input repeated its value bit for bit stuck_after times: left out as stuck"),
+        (
+            5,
+            "inconsistent",
+            "the input's innovations follow its own prediction or sit off zero where the other inputs contradict it \
+             (a flipped sign, a unit, gravity left in, a swapped channel): left out until it agrees again",
+        ),
     ],
 };
 
@@ -235,12 +241,13 @@ pub fn status_value(outcome: RowOutcome) -> i32 {
         RowOutcome::Rejected => 2,
         RowOutcome::Missing => 3,
         RowOutcome::Stuck => 4,
+        RowOutcome::Inconsistent => 5,
     }
 }
 
 /// The row outcome of an [`INPUT_STATUS`] value, if it is one.
 pub fn status_outcome(value: i32) -> Option<RowOutcome> {
-    [RowOutcome::Used, RowOutcome::Rejected, RowOutcome::Missing, RowOutcome::Stuck]
+    [RowOutcome::Used, RowOutcome::Rejected, RowOutcome::Missing, RowOutcome::Stuck, RowOutcome::Inconsistent]
         .into_iter()
         .find(|&outcome| status_value(outcome) == value)
 }
@@ -253,7 +260,8 @@ fn status_variable(input: &Variable) -> Option<Variable> {
         &INPUT_STATUS,
         Role::InputStatus(row),
         "what became of the input in the update the outputs show: 1 used, 2 rejected by the gate, 3 missing \
-         (NaN, infinite or never set), 4 stuck; read between samples, that of the latest update; 3 before the first",
+         (NaN, infinite or never set), 4 stuck, 5 inconsistent with the other inputs (its wiring); read between \
+         samples, that of the latest update; 3 before the first",
     ))
 }
 

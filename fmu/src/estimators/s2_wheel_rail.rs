@@ -192,7 +192,7 @@ pub(super) fn descriptor() -> Descriptor {
         // fails the gate, one axle box alone showing it, so it stays an
         // ambiguous jump for a sample (44 kN off for 1 ms). A track rougher
         // than the default assumes raises it. The jumps are taken.
-        supervision: SupervisorSettings { min_process_noise_scale: 1.0, ..SupervisorSettings::default() },
+        supervision: SupervisorSettings { min_process_noise_scale: 1.0, wiring_sigmas: 8.0, ..SupervisorSettings::default() },
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &WheelRailVertical::UNKNOWN_INPUTS,

@@ -457,7 +457,7 @@ pub(super) fn descriptor() -> Descriptor {
         // few ms), which a smooth stretch says nothing of; learnt there, its
         // scale would fall to its bound and the next weld fail the gate. The
         // jumps are taken.
-        supervision: SupervisorSettings { min_process_noise_scale: 1.0, ..SupervisorSettings::default() },
+        supervision: SupervisorSettings { min_process_noise_scale: 1.0, wiring_sigmas: 8.0, ..SupervisorSettings::default() },
         derive,
         build_steps: no_quantized_steps,
         unknown_inputs: &WheelRailRoll::UNKNOWN_INPUTS,

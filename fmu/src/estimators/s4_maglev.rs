@@ -261,10 +261,14 @@ pub(super) fn descriptor() -> Descriptor {
         // run, its scale falls until the speed lags the braking after a
         // dropout (seed 1: the largest speed error 0.41 m/s instead of 0.11,
         // the position 0.049 m instead of 0.0045, though the mean error falls
-        // from 0.016 to 0.009 m/s). The jumps are taken.
+        // from 0.016 to 0.009 m/s). The jumps are taken. The wiring is
+        // checked: four telegrams of one position contradict each other (a
+        // flipped telegram is named 0.04 s after it starts).
         supervision: SupervisorSettings {
             stuck_after: 2,
             min_process_noise_scale: 1.0,
+            wiring_sigmas: 8.0,
+            wiring_leaves_out: true,
             ..SupervisorSettings::default()
         },
         derive,

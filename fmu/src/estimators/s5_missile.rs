@@ -228,7 +228,7 @@ pub(super) fn descriptor() -> Descriptor {
         build_filter: build,
         build_noise: noise,
         default_filter: FilterKind::SvdCkf,
-        supervision: SupervisorSettings::default(),
+        supervision: SupervisorSettings { wiring_sigmas: 8.0, ..SupervisorSettings::default() },
         derive: no_derived_outputs,
         build_steps: no_quantized_steps,
         unknown_inputs: &Missile6Dof::UNKNOWN_INPUTS,

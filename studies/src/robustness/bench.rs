@@ -46,6 +46,8 @@ pub struct Trace {
     pub healthy: Vec<bool>,
     /// `<input>_fault`, per input.
     pub faulty: Vec<Vec<bool>>,
+    /// `<input>_status`, per input (the FMU's `InputStatus`: 5 is inconsistent).
+    pub status: Vec<Vec<i32>>,
     /// Steps the FMU answered with fmi2Warning (a lost filter).
     pub warnings: usize,
     /// The step the FMU refused (fmi2Discard: its filter failed), which ends the run.
@@ -80,6 +82,8 @@ impl Bench {
             .collect::<anyhow::Result<_>>()?;
         let fault_vrs: Vec<u32> =
             self.inputs.iter().map(|n| fmu.vr(&format!("{n}_fault"))).collect::<anyhow::Result<_>>()?;
+        let status_vrs: Vec<u32> =
+            self.inputs.iter().map(|n| fmu.vr(&format!("{n}_status"))).collect::<anyhow::Result<_>>()?;
         let healthy_vr = [fmu.vr("filter_healthy")?];
         let row = |k: usize| -> Vec<f64> { z[k].iter().chain(self.u.get(k).into_iter().flatten()).copied().collect() };
         let end = (samples.max(1) - 1) as f64 * self.dt;
@@ -98,15 +102,19 @@ impl Bench {
             std: Vec::with_capacity(samples),
             healthy: Vec::with_capacity(samples),
             faulty: Vec::with_capacity(samples),
+            status: Vec::with_capacity(samples),
             warnings: 0,
             failure: None,
         };
-        let (mut values, mut flags, mut healthy) = (vec![0.0; 2 * n], vec![0; self.inputs.len()], [0]);
+        let m = self.inputs.len();
+        let (mut values, mut flags, mut status, mut healthy) = (vec![0.0; 2 * n], vec![0; m], vec![0; m], [0]);
         for k in 0..samples {
             instance.set_inputs(&input_vrs, &row(k))?;
             instance.read_as_is(&target_vrs, &mut values)?;
             instance.read_booleans(&fault_vrs, &mut flags)?;
+            instance.read_integers(&status_vrs, &mut status)?;
             instance.read_booleans(&healthy_vr, &mut healthy)?;
+            trace.status.push(status.clone());
             trace.estimate.push(values.iter().step_by(2).copied().collect());
             trace.std.push(values.iter().skip(1).step_by(2).copied().collect());
             trace.faulty.push(flags.iter().map(|&f| f != 0).collect());

@@ -9,6 +9,7 @@
 pub mod bench;
 pub mod benches;
 pub mod episode;
+pub mod wiring;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -41,9 +42,16 @@ pub struct Args {
     /// Run only the batches K, K + N, … of the N (1-based): `--shard 2/4`.
     #[arg(long, default_value = "1/1")]
     pub shard: Shard,
-    /// Also list every episode not recovered within the bound, with what it did.
+    /// Also list every episode not recovered within the bound, with what it
+    /// did (with `--wiring`: every run).
     #[arg(long)]
     pub list_unrecovered: bool,
+    /// Instead of the episodes: every wiring mistake (a sign, a unit, gravity
+    /// left in, a swap) on every input, from half a second after the warm-up
+    /// to the end of the run: is the input named, and is the filter called
+    /// unhealthy where its estimate leaves its σ?
+    #[arg(long)]
+    pub wiring: bool,
 }
 
 /// Episodes per batch: a batch loads the FMU once.
@@ -78,6 +86,19 @@ fn benches(studies: &[String]) -> anyhow::Result<Vec<Bench>> {
 /// Runs the subcommand.
 pub fn run_command(args: &Args) -> anyhow::Result<()> {
     let benches = benches(&args.studies)?;
+    if args.wiring {
+        let start = WARM_UP + 0.5;
+        println!(
+            "robustness --wiring: each wiring mistake on each input from {start} s into the study's default case to \
+             the end of the run; the packaged FMUs of {} through the fmi importer",
+            args.fmu_dir.display()
+        );
+        for bench in &benches {
+            print!("{}", wiring::study(bench, args, start)?);
+        }
+        println!("{}", wiring::LEGEND);
+        return Ok(());
+    }
     println!(
         "robustness: {} fault episodes per FMU (seed {}), each 1 to {LONGEST} samples from {WARM_UP}–{} s into the \
          study's default case, on one input, some or all; the packaged FMUs of {} through the fmi importer",

@@ -1,0 +1,255 @@
+//! Wiring checks: a channel whose sign, unit or zero is wrong.
+//!
+//! A sign wired the wrong way round, an acceleration in g taken for m/s²,
+//! gravity left in: each is small enough on one sample to pass the gate, and
+//! with many channels the others outvote it, so the gate never says so (S3
+//! with one axle-box accelerometer flipped ran healthy, that wheelset's
+//! forces wrong). But the innovations of such a channel are not white noise:
+//! they follow the channel's own predicted value (`ν ≈ (k − 1)·ẑ` for a
+//! scale `k`: −2·ẑ for a flipped sign) or sit off zero (`ν ≈ b` for an
+//! offset `b`). Each channel is watched for both, with two scores from the
+//! normalised innovations `eₖ = νₖ/√Sₖₖ` of the predictions before each update
+//! (every available row's, the rejected ones' too), clipped at the gate's
+//! `±√χ²`, forgetting with `λ = 1 − 1/window`:
+//!
+//! * **bias**: `Σ λʲ·e / √(Σ λ²ʲ)`;
+//! * **scale**: `Σ λʲ·e·g / √(Σ λ²ʲ·g²)`, with `g = (ẑ − z̄)/√S` the channel's
+//!   prediction about its forgetting mean, known before the sample comes.
+//!
+//! For a consistent filter the `e` are independent with unit variance and
+//! each `g` is fixed before its `e`, so both scores are standard normal: at
+//! a threshold of 8 ([`SupervisorSettings::wiring_sigmas`]; infinite, off,
+//! by default) the per-sample false-alarm rate is that of an 8σ event,
+//! 1e-15. Model mismatch makes small effects significant, so a score counts
+//! only where its effect is wiring-sized ([`Channel::wiring_score`]); what
+//! mismatch still adds is measured (`kalfmu robustness --wiring`, clean
+//! runs; `estimator/tests/wiring.rs`).
+//!
+//! A channel whose score has passed the threshold for a tenth of a window is
+//! inconsistent, and it is taken back once its score is below half the
+//! threshold. What the verdict does depends on whether the data can say
+//! which channel is wrong ([`SupervisorSettings::wiring_leaves_out`]):
+//!
+//! * **Left out**, where the channels contradict each other directly (S4's
+//!   four telegrams of one position): the worst channel, while at most a
+//!   third of the available ones (one, with fewer than six) pass and at
+//!   least three are available. Its row outcome is
+//!   [`RowOutcome::Inconsistent`](super::RowOutcome::Inconsistent); it is
+//!   still predicted before each update and scored.
+//! * **Named** (the default), where an unknown input follows a channel (S2's
+//!   and S3's axle boxes, each driven by its own wheel force: a flipped one
+//!   drags its force along, and the bogie frame's channels show the
+//!   mistake): every channel that passes is named in the log and kept in
+//!   the updates, and the filter is inconsistent (`filter_healthy` false)
+//!   while one is. Leaving out the worst would blame the channel showing the
+//!   mistake, not the one making it.
+//!
+//! The fit of `ν = (k − 1)·(ẑ − z̄) + b` behind the scores says what is
+//! likely wrong ([`Channel::wiring_fit`]).
+//!
+//! What no check of innovations can see: a channel that no other contradicts
+//! (every channel flipped together; S1's load channel, whose load follows
+//! whatever it reads). docs/supervisor.md says how a user checks those.
+
+use super::channel::Channel;
+use super::outcome::RowOutcome;
+use super::Supervisor;
+
+/// How far from 1 a channel's scale must be to be wiring: a sign (−1), a
+/// unit (9.81 or 0.102) are far beyond it, model mismatch (a few %) within.
+pub const SCALE_TOLERANCE: f64 = 0.5;
+/// How far from 0 a channel's mean normalised innovation must be to be
+/// wiring (in σ of the innovation): gravity left in is far beyond it.
+pub const BIAS_TOLERANCE: f64 = 1.0;
+
+impl Supervisor {
+    /// Scores each channel's prediction of the pending sample and decides
+    /// which channels are inconsistent: at most one more per sample, the
+    /// worst, once its score has passed the threshold for a tenth of a
+    /// window, and only while at least three channels are available and at
+    /// most a third of them (one with fewer than six) pass; one is taken back
+    /// once its score is below half the threshold.
+    pub(super) fn commit_wiring(&mut self) {
+        let threshold = self.settings.wiring_sigmas;
+        if !threshold.is_finite() {
+            return;
+        }
+        let (memory, clip) = (self.settings.window, self.thresholds.row.min(1e6).sqrt());
+        // A belief in flux (re-acquired, restarted, jumped, under revision)
+        // predicts what its own episode did, not what the wiring does.
+        let pending = &self.pending;
+        let flux = pending.reacquired.is_some()
+            || pending.restarted
+            || pending.jump > 0.0
+            || pending.revision != super::outcome::Revision::None
+            || self.rival.active
+            || self.review.active;
+        let work = &self.work;
+        let mut available = 0;
+        for (c, channel) in self.channels.iter_mut().enumerate() {
+            let row = self.pending.rows[c];
+            if matches!(row, RowOutcome::Missing | RowOutcome::Stuck) {
+                continue;
+            }
+            available += 1;
+            if !flux {
+                channel.learn_wiring(work.residuals[c], work.first_variances[c], self.z_offered[c], memory, clip);
+                if channel.inconsistent && channel.recent_score(memory) < threshold / 4.0 {
+                    // The mistake has ended (its last tenth of a window is
+                    // quiet): the window's evidence of it goes ten times
+                    // faster, so that the channel is not judged on a past
+                    // fault for a whole window (S4: 4 s at 50 Hz).
+                    channel.forget_wiring_evidence(memory);
+                }
+            }
+            let score = channel.wiring_score();
+            if channel.inconsistent && score < threshold / 2.0 {
+                channel.inconsistent = false;
+            }
+            channel.wiring_run = if score > threshold { channel.wiring_run.saturating_add(1) } else { 0 };
+        }
+        // A verdict waits a tenth of a window past the threshold: by then the
+        // fit that names the likely cause describes the fault.
+        let settled = (memory / 10).max(2) as u32;
+        if !self.settings.wiring_leaves_out {
+            // Named, kept, and the filter inconsistent: every channel whose
+            // innovations disagree may be the one wrong or the one showing it.
+            for channel in &mut self.channels {
+                channel.inconsistent |= channel.wiring_run >= settled;
+            }
+            return;
+        }
+        // With two channels the data cannot say which one is wrong (S1: a
+        // flipped load channel makes the other one disagree).
+        let above = self.channels.iter().filter(|c| c.wiring_score() > threshold).count();
+        if available < 3 || above == 0 || above > (available / 3).max(1) {
+            return;
+        }
+        let worst = self
+            .channels
+            .iter_mut()
+            .enumerate()
+            .filter(|(c, channel)| {
+                !channel.inconsistent && !matches!(self.pending.rows[*c], RowOutcome::Missing | RowOutcome::Stuck)
+            })
+            .map(|(_, channel)| channel)
+            .max_by(|a, b| a.wiring_score().total_cmp(&b.wiring_score()));
+        if let Some(channel) = worst.filter(|c| c.wiring_run >= settled) {
+            channel.inconsistent = true;
+        }
+    }
+}
+
+impl Channel {
+    /// Learns from one sample's innovation `residual` of this channel, its
+    /// variance `variance` (of the prediction before the update) and the
+    /// value offered `z`, forgetting over `memory` samples; the normalised
+    /// innovation is clipped at `±clip`.
+    pub(super) fn learn_wiring(&mut self, residual: f64, variance: f64, z: f64, memory: usize, clip: f64) {
+        if !(residual.is_finite() && variance > 0.0 && variance.is_finite() && z.is_finite()) {
+            return;
+        }
+        let lambda = 1.0 - 1.0 / memory.max(2) as f64;
+        let sigma = variance.sqrt();
+        let e = (residual / sigma).clamp(-clip, clip);
+        let predicted = z - residual;
+        let g = if self.predictions == 0 { 0.0 } else { (predicted - self.prediction_mean) / sigma };
+        self.bias_evidence = lambda * self.bias_evidence + e;
+        self.bias_weight = lambda * lambda * self.bias_weight + 1.0;
+        // A wrong scale makes `e` a multiple of `g` (8.81 for g taken for
+        // m/s²): clipped at twelve times `g` it keeps that, while a gross
+        // error (a burst) weighs no more than that.
+        let bound = clip.max(12.0 * g.abs());
+        let e_scale = (residual / sigma).clamp(-bound, bound);
+        self.scale_evidence = lambda * self.scale_evidence + e_scale * g;
+        self.scale_weight = lambda * lambda * self.scale_weight + g * g;
+        self.scale_norm = lambda * self.scale_norm + g * g;
+        self.offset_sum = lambda * self.offset_sum + e;
+        self.offset_weight = lambda * self.offset_weight + 1.0;
+        // The fit forgets ten times faster: at a verdict it describes the
+        // fault, not the window's mix of before and after.
+        let fast = 1.0 - 1.0 / (memory / 10).max(2) as f64;
+        self.fit_evidence = fast * self.fit_evidence + e_scale * g;
+        self.fit_e = fast * self.fit_e + e_scale;
+        self.fit_g = fast * self.fit_g + g;
+        self.fit_norm = fast * self.fit_norm + g * g;
+        self.fit_offset = fast * self.fit_offset + residual;
+        self.fit_weight = fast * self.fit_weight + 1.0;
+        self.predictions = self.predictions.saturating_add(1);
+        let weight = 1.0 / self.predictions.min(memory as u64) as f64;
+        self.prediction_mean += weight * (predicted - self.prediction_mean);
+    }
+
+    /// The larger of the bias and scale scores over the last tenth of a
+    /// window (the fit's sums), about standard normal for a consistent channel.
+    fn recent_score(&self, memory: usize) -> f64 {
+        // Σλ²ʲ = Σλʲ/(1 + λ) at a steady state of the forgetting sums.
+        let fast = 1.0 - 1.0 / (memory / 10).max(2) as f64;
+        let bias = if self.fit_weight > 0.0 { self.fit_e / (self.fit_weight / (1.0 + fast)).sqrt() } else { 0.0 };
+        let scale = if self.fit_norm > 0.0 { self.fit_evidence / (self.fit_norm / (1.0 + fast)).sqrt() } else { 0.0 };
+        bias.abs().max(scale.abs())
+    }
+
+    /// Lets the window's evidence decay at the fit's rate for one more sample.
+    fn forget_wiring_evidence(&mut self, memory: usize) {
+        let (lambda, fast) = (1.0 - 1.0 / memory.max(2) as f64, 1.0 - 1.0 / (memory / 10).max(2) as f64);
+        let extra = fast / lambda;
+        self.bias_evidence *= extra;
+        self.scale_evidence *= extra;
+        self.offset_sum *= extra;
+    }
+
+    /// The bias score: standard normal for a consistent channel.
+    pub fn bias_score(&self) -> f64 {
+        if self.bias_weight > 0.0 {
+            self.bias_evidence / self.bias_weight.sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// The scale score: standard normal for a consistent channel.
+    pub fn scale_score(&self) -> f64 {
+        if self.scale_weight > 0.0 {
+            self.scale_evidence / self.scale_weight.sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// The larger of the two scores' magnitudes, each counted only where
+    /// its effect is large enough to be wiring (a scale off 1 by more than
+    /// [`SCALE_TOLERANCE`], a mean innovation beyond [`BIAS_TOLERANCE`] σ):
+    /// model mismatch makes small effects significant (S1's `z2_ddot`
+    /// predicted 2 % too large gives a scale score of −20 on clean data).
+    pub fn wiring_score(&self) -> f64 {
+        let scale = if self.scale_norm > 0.0 { 1.0 + self.scale_evidence / self.scale_norm } else { 1.0 };
+        let mean = if self.offset_weight > 0.0 { self.offset_sum / self.offset_weight } else { 0.0 };
+        // An offset also moves the scale score (the innovations do not
+        // average out over the prediction's swings): it is read as a bias.
+        if mean.abs() > BIAS_TOLERANCE {
+            self.bias_score().abs()
+        } else if (scale - 1.0).abs() > SCALE_TOLERANCE {
+            self.scale_score().abs()
+        } else {
+            0.0
+        }
+    }
+
+    /// What the innovations say the channel reads: its scale `k` (about −1
+    /// for a flipped sign, 9.81 for g taken for m/s², 0.102 for m/s² taken
+    /// for g) and its mean innovation `b` (its unit: about 9.81 m/s² for
+    /// gravity left in), from the fit of `ν = (k − 1)·(ẑ − z̄) + b` (the
+    /// scale score's sums). Both are rough (a state the
+    /// fault has moved biases them), enough to name a likely cause, not to
+    /// correct it.
+    pub fn wiring_fit(&self) -> (f64, f64) {
+        // The weighted least squares of `e = a + (k − 1)·g`: an offset
+        // does not pass for a scale.
+        let determinant = self.fit_weight * self.fit_norm - self.fit_g * self.fit_g;
+        let slope = self.fit_weight * self.fit_evidence - self.fit_g * self.fit_e;
+        let scale = if determinant > 0.0 { 1.0 + slope / determinant } else { 1.0 };
+        let offset = if self.fit_weight > 0.0 { self.fit_offset / self.fit_weight } else { 0.0 };
+        (scale, offset)
+    }
+}
