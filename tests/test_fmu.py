@@ -1162,7 +1162,7 @@ def test_ten_samples_of_a_million_on_both_inputs_change_nothing_silently(new_sla
 
 
 #: The items of the `InputStatus` enumeration the `<input>_status` outputs have.
-INPUT_STATUS = {"used": 1, "rejected": 2, "missing": 3, "stuck": 4}
+INPUT_STATUS = {"used": 1, "rejected": 2, "missing": 3, "stuck": 4, "inconsistent": 5}
 
 
 def test_every_measurement_has_a_status_output_and_on_clean_data_every_status_is_used(case_slave, case):

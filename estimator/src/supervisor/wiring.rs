@@ -9,7 +9,8 @@
 //! scale `k`: −2·ẑ for a flipped sign) or sit off zero (`ν ≈ b` for an
 //! offset `b`). Each channel is watched for both, with two scores from the
 //! normalised innovations `eₖ = νₖ/√Sₖₖ` of the predictions before each update
-//! (every available row's, the rejected ones' too), clipped at the gate's
+//! (every available row's, a rejected one's once it has been rejected as
+//! long as a re-acquisition's trigger), clipped at the gate's
 //! `±√χ²`, forgetting with `λ = 1 − 1/window`:
 //!
 //! * **bias**: `Σ λʲ·e / √(Σ λ²ʲ)`;
@@ -64,17 +65,19 @@ pub const BIAS_TOLERANCE: f64 = 1.0;
 
 impl Supervisor {
     /// Scores each channel's prediction of the pending sample and decides
-    /// which channels are inconsistent: at most one more per sample, the
-    /// worst, once its score has passed the threshold for a tenth of a
-    /// window, and only while at least three channels are available and at
-    /// most a third of them (one with fewer than six) pass; one is taken back
-    /// once its score is below half the threshold.
+    /// which channels are inconsistent once their score has passed the
+    /// threshold for a tenth of a window: where the verdict names, every such
+    /// channel; where it leaves out, at most one more per sample, the worst,
+    /// and only while at least three channels are available and at most a
+    /// third of them (one with fewer than six) pass. One is taken back once
+    /// its score is below half the threshold.
     pub(super) fn commit_wiring(&mut self) {
         let threshold = self.settings.wiring_sigmas;
         if !threshold.is_finite() {
             return;
         }
         let (memory, clip) = (self.settings.window, self.thresholds.row.min(1e6).sqrt());
+        let reacquire_after = self.settings.reacquire_after;
         // A belief in flux (re-acquired, restarted, jumped, under revision)
         // predicts what its own episode did, not what the wiring does.
         let pending = &self.pending;
@@ -92,7 +95,12 @@ impl Supervisor {
                 continue;
             }
             available += 1;
-            if !flux {
+            // A row the gate rejects teaches the scores only once its run of
+            // rejections is as long as a re-acquisition's trigger: a burst of
+            // gross errors is no wiring, a flipped telegram that fails the
+            // gate for good is.
+            let gross = row == RowOutcome::Rejected && channel.rejected_run < reacquire_after;
+            if !flux && !gross {
                 channel.learn_wiring(work.residuals[c], work.first_variances[c], self.z_offered[c], memory, clip);
                 if channel.inconsistent && channel.recent_score(memory) < threshold / 4.0 {
                     // The mistake has ended (its last tenth of a window is

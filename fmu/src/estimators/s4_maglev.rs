@@ -263,7 +263,7 @@ pub(super) fn descriptor() -> Descriptor {
         // the position 0.049 m instead of 0.0045, though the mean error falls
         // from 0.016 to 0.009 m/s). The jumps are taken. The wiring is
         // checked: four telegrams of one position contradict each other (a
-        // flipped telegram is named 0.04 s after it starts).
+        // flipped telegram is named 0.78 s after it starts: kalfmu robustness --wiring).
         supervision: SupervisorSettings {
             stuck_after: 2,
             min_process_noise_scale: 1.0,
