@@ -30,8 +30,9 @@ pub struct Channel {
     pub(super) step_multiple: i64,
     /// How many samples in a row they sat there.
     pub(super) step_run: u32,
-    /// Its wiring is inconsistent with the other channels (`wiring.rs`):
-    /// left out of the updates until its scores are back.
+    /// Its wiring is inconsistent with the other channels (`wiring.rs`)
+    /// until its scores are back: left out of the updates, or named with
+    /// the filter inconsistent ([`SupervisorSettings::wiring_leaves_out`]).
     pub inconsistent: bool,
     /// Consecutive samples its wiring score has been above the threshold.
     pub(super) wiring_run: u32,

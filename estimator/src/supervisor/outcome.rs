@@ -12,7 +12,9 @@ pub enum RowOutcome {
     Rejected,
     /// Repeated its value `stuck_after` times: left out.
     Stuck,
-    /// Its wiring is inconsistent with the other channels (`wiring.rs`): left out.
+    /// Its wiring is inconsistent with the other channels (`wiring.rs`) and
+    /// the supervisor leaves such channels out
+    /// ([`SupervisorSettings::wiring_leaves_out`](crate::SupervisorSettings::wiring_leaves_out)).
     Inconsistent,
 }
 
