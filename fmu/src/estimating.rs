@@ -597,7 +597,7 @@ pub fn build_supervisor(
         adaptation_window: count("adaptation_window")? as usize,
         min_process_noise_scale: p.get("min_process_noise_scale")?,
         max_process_noise_scale: p.get("max_process_noise_scale")?,
-        // Not a parameter: on only where the FMU's inputs contradict each other directly (S4).
+        // Not parameters: each FMU's own (S4 leaves an inconsistent telegram out, the others name it).
         wiring_sigmas: descriptor.supervision.wiring_sigmas,
         wiring_leaves_out: descriptor.supervision.wiring_leaves_out,
         ..SupervisorSettings::default()

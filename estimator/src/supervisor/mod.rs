@@ -31,8 +31,9 @@
 //!   explains is model mismatch, not a fault: it is used, from `P + c·Q`, and
 //!   the next sample reviews whether it was a spike after all.
 //! * **Wiring** (`wiring.rs`): a channel whose innovations follow its own
-//!   prediction (a sign, a unit) or sit off zero (gravity left in), which
-//!   the other channels contradict, is inconsistent and left out.
+//!   prediction (a sign, a unit) or sit off zero (gravity left in) is
+//!   inconsistent: left out where the channels contradict each other
+//!   directly, otherwise named with the filter inconsistent.
 //! * **Adaptation** (`adaptation.rs`): a bounded, forgetting scale on `Q`
 //!   learnt from the normalised innovations of the rows used.
 //!

@@ -63,6 +63,17 @@ pub const SCALE_TOLERANCE: f64 = 0.5;
 /// wiring (in σ of the innovation): gravity left in is far beyond it.
 pub const BIAS_TOLERANCE: f64 = 1.0;
 
+/// The memory of the fit, of the recent score and of a verdict's wait: a
+/// tenth of the scores' `memory` (samples), at least two.
+fn fit_memory(memory: usize) -> usize {
+    (memory / 10).max(2)
+}
+
+/// The forgetting factor `λ` of sums with a memory of `memory` samples.
+fn forgetting(memory: usize) -> f64 {
+    1.0 - 1.0 / memory.max(2) as f64
+}
+
 impl Supervisor {
     /// Scores each channel's prediction of the pending sample and decides
     /// which channels are inconsistent once their score has passed the
@@ -118,7 +129,7 @@ impl Supervisor {
         }
         // A verdict waits a tenth of a window past the threshold: by then the
         // fit that names the likely cause describes the fault.
-        let settled = (memory / 10).max(2) as u32;
+        let settled = fit_memory(memory) as u32;
         if !self.settings.wiring_leaves_out {
             // Named, kept, and the filter inconsistent: every channel whose
             // innovations disagree may be the one wrong or the one showing it.
@@ -157,7 +168,7 @@ impl Channel {
         if !(residual.is_finite() && variance > 0.0 && variance.is_finite() && z.is_finite()) {
             return;
         }
-        let lambda = 1.0 - 1.0 / memory.max(2) as f64;
+        let lambda = forgetting(memory);
         let sigma = variance.sqrt();
         let e = (residual / sigma).clamp(-clip, clip);
         let predicted = z - residual;
@@ -176,7 +187,7 @@ impl Channel {
         self.offset_weight = lambda * self.offset_weight + 1.0;
         // The fit forgets ten times faster: at a verdict it describes the
         // fault, not the window's mix of before and after.
-        let fast = 1.0 - 1.0 / (memory / 10).max(2) as f64;
+        let fast = forgetting(fit_memory(memory));
         self.fit_evidence = fast * self.fit_evidence + e_scale * g;
         self.fit_e = fast * self.fit_e + e_scale;
         self.fit_g = fast * self.fit_g + g;
@@ -192,7 +203,7 @@ impl Channel {
     /// window (the fit's sums), about standard normal for a consistent channel.
     fn recent_score(&self, memory: usize) -> f64 {
         // Σλ²ʲ = Σλʲ/(1 + λ) at a steady state of the forgetting sums.
-        let fast = 1.0 - 1.0 / (memory / 10).max(2) as f64;
+        let fast = forgetting(fit_memory(memory));
         let bias = if self.fit_weight > 0.0 { self.fit_e / (self.fit_weight / (1.0 + fast)).sqrt() } else { 0.0 };
         let scale = if self.fit_norm > 0.0 { self.fit_evidence / (self.fit_norm / (1.0 + fast)).sqrt() } else { 0.0 };
         bias.abs().max(scale.abs())
@@ -200,7 +211,7 @@ impl Channel {
 
     /// Lets the window's evidence decay at the fit's rate for one more sample.
     fn forget_wiring_evidence(&mut self, memory: usize) {
-        let (lambda, fast) = (1.0 - 1.0 / memory.max(2) as f64, 1.0 - 1.0 / (memory / 10).max(2) as f64);
+        let (lambda, fast) = (forgetting(memory), forgetting(fit_memory(memory)));
         let extra = fast / lambda;
         self.bias_evidence *= extra;
         self.scale_evidence *= extra;
