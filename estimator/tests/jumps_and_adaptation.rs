@@ -8,6 +8,11 @@
 //! * a spike no other row can contradict is taken as a jump, and its review
 //!   at the next sample retracts it: it counts as rejected, and the belief is
 //!   the one without it;
+//! * a step that one row alone shows is held for its review and followed
+//!   from the next sample; while that change is under way its further steps
+//!   are followed at their samples; where single-row jumps are shown, the
+//!   first is followed at its sample too, and a spike shows for one sample
+//!   inside its σ before its review retracts it;
 //! * a filter told `Q` ten times too large or too small is consistent again
 //!   within 300 samples (3 s);
 //! * a saved memory with a jump under review continues exactly.
@@ -221,5 +226,116 @@ fn a_memory_saved_with_a_jump_under_review_continues_exactly() {
             }
         }
         assert_eq!(f.mean(), g.mean(), "{kind}");
+    }
+}
+
+/// A linear case: its model, `Q`, `R`, prior, true states and measurements.
+type Case = (LinearGaussian, DMatrix<f64>, DMatrix<f64>, Gaussian, Vec<DVector<f64>>, Vec<Vec<f64>>);
+
+/// Two random walks, each seen by one row alone (nothing can contradict either),
+/// with a step of the first of 100 σ of its row at `steps[0]` and more steps
+/// after it (an impact that rings): `(model, q, r, prior, truth, measurements)`.
+fn single_row_steps(n: usize, seed: u64, steps: &[(usize, f64)]) -> Case {
+    let model = LinearGaussian::new(DMatrix::identity(2, 2), DMatrix::zeros(2, 1), DMatrix::identity(2, 2));
+    let q = DMatrix::identity(2, 2) * 1e-4;
+    let r = DMatrix::identity(2, 2) * 1e-2;
+    let prior = Gaussian { mean: DVector::zeros(2), covariance: DMatrix::identity(2, 2) * 1e-2 };
+    let mut rng = rng(seed);
+    let mut x = DVector::zeros(2);
+    let (mut truth, mut measurements) = (Vec::new(), Vec::new());
+    for k in 0..n {
+        if k > 0 {
+            x += correlated(&mut rng, &q);
+        }
+        if let Some((_, size)) = steps.iter().find(|(at, _)| *at == k) {
+            x[0] += size;
+        }
+        measurements.push((&x + correlated(&mut rng, &r)).iter().copied().collect());
+        truth.push(x.clone());
+    }
+    (model, q, r, prior, truth, measurements)
+}
+
+/// The error of the first state over its σ after each sample, with `settings`.
+fn errors_over_sigma(kind: FilterKind, settings: SupervisorSettings, steps: &[(usize, f64)]) -> Vec<f64> {
+    let (model, q, r, prior, truth, measurements) = single_row_steps(200, 21, steps);
+    let mut f = filter_for(kind, model, q, r, &prior);
+    let mut s = Supervisor::new(SupervisorSettings { adaptation_window: 0, ..settings }, 2).unwrap();
+    let mut ratios = Vec::new();
+    for (k, z) in measurements.iter().enumerate() {
+        step(f.as_mut(), &mut s, &[0.0], &[0.0], z);
+        ratios.push((f.mean()[0] - truth[k][0]).abs() / f.variance(0).sqrt());
+    }
+    assert_eq!(s.retracted_jumps(), 0, "{kind}: a true step is never retracted");
+    ratios
+}
+
+/// A step of 1 (10 σ of the row, 100 σ of the random walk's step) at sample 100, then the
+/// same change ringing on: -1.5 at 103, +0.8 at 106, all inside `change_memory` of each other.
+const RINGING: [(usize, f64); 3] = [(100, 1.0), (103, -1.5), (106, 0.8)];
+
+#[test]
+fn a_step_one_row_alone_shows_is_held_for_its_review_then_followed_while_it_rings() {
+    for kind in FilterKind::ALL {
+        let held = errors_over_sigma(kind, SupervisorSettings::default(), &RINGING);
+        // At the step's own sample the estimate holds (an error of the step's size), about
+        // 2σ of the mixture (the jump hypothesis's half of it covers the step; the noise
+        // of the row adds a little).
+        assert!(held[100] > 0.5 && held[100] <= 2.5, "{kind}: at the step {:.2} σ", held[100]);
+        // From the next sample on it is followed, and the ringing that comes while the change
+        // is under way is followed at its own samples.
+        for (k, ratio) in held.iter().enumerate().skip(101) {
+            assert!(*ratio < 4.0, "{kind} sample {k}: {ratio:.2} σ");
+        }
+        // Without a memory of the change, each ringing step is held for its review again.
+        let forgetful =
+            errors_over_sigma(kind, SupervisorSettings { change_memory: 0, ..Default::default() }, &RINGING);
+        assert!(forgetful[103] > 0.5, "{kind}: held at 103 without the memory ({:.2} σ)", forgetful[103]);
+    }
+}
+
+#[test]
+fn where_single_row_jumps_are_shown_a_step_is_followed_at_its_sample() {
+    let shown = SupervisorSettings { show_single_row_jumps: true, ..SupervisorSettings::default() };
+    for kind in FilterKind::ALL {
+        let ratios = errors_over_sigma(kind, shown, &RINGING);
+        for (k, ratio) in ratios.iter().enumerate().skip(100) {
+            assert!(*ratio < 4.0, "{kind} sample {k}: {ratio:.2} σ");
+        }
+        // Where nothing happened the setting changes nothing.
+        let quiet = errors_over_sigma(kind, shown, &[]);
+        assert_eq!(quiet, errors_over_sigma(kind, SupervisorSettings::default(), &[]), "{kind}");
+    }
+}
+
+#[test]
+fn where_single_row_jumps_are_shown_a_spike_shows_inside_its_sigma_and_is_retracted_next() {
+    let (model, q, r, prior, _, mut measurements) = single_row_steps(200, 22, &[]);
+    measurements[120][0] += 30.0; // 300 σ of the row, for one sample
+    let shown = SupervisorSettings { show_single_row_jumps: true, adaptation_window: 0, ..Default::default() };
+    for kind in FilterKind::ALL {
+        let mut gated = filter_for(kind, model.clone(), q.clone(), r.clone(), &prior);
+        let mut plain = filter_for(kind, model.clone(), q.clone(), r.clone(), &prior);
+        let mut s = Supervisor::new(shown, 2).unwrap();
+        for (k, z) in measurements.iter().enumerate() {
+            let outcome = step(gated.as_mut(), &mut s, &[0.0], &[0.0], z);
+            plain.predict(&[0.0], DT).unwrap();
+            plain.hold_input(&[0.0]).unwrap();
+            let mut without = z.clone();
+            if k == 120 {
+                without[0] = f64::NAN;
+            }
+            plain.update(&without).unwrap();
+            let gap = (gated.mean()[0] - plain.mean()[0]).abs();
+            if k == 120 {
+                assert!(outcome.ambiguous && !outcome.continued, "{kind}: {outcome:?}");
+                // The spike shows, but the belief without it is inside 2σ of what is shown.
+                assert!(gap > 1.0 && gap <= 2.0 * gated.variance(0).sqrt(), "{kind}: gap {gap}");
+            } else {
+                assert_eq!(outcome.retracted, [k == 121, false], "{kind} sample {k}");
+                assert!(gap <= 1e-9, "{kind} sample {k}: the belief without the spike, off by {gap}");
+            }
+        }
+        assert_eq!((s.rejected(), s.retracted_jumps()), (1, 1), "{kind}");
     }
 }

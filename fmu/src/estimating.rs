@@ -594,6 +594,8 @@ pub fn build_supervisor(
         consistency_margin: p.get("consistency_margin")?,
         max_inflation: p.get("max_inflation")?,
         jumps: p.get("take_jumps")? != 0.0,
+        show_single_row_jumps: p.get("show_single_row_jumps")? != 0.0,
+        change_memory: count("change_memory")?,
         adaptation_window: count("adaptation_window")? as usize,
         min_process_noise_scale: p.get("min_process_noise_scale")?,
         max_process_noise_scale: p.get("max_process_noise_scale")?,

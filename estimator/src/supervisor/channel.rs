@@ -22,6 +22,12 @@ pub struct Channel {
     /// It failed again right after its re-acquisition: broken, it triggers
     /// none until it passes the gate.
     pub suspended: bool,
+    /// Samples since a jump that this channel's row explained was confirmed:
+    /// by another row at its sample, or by its review at the next
+    /// (`jump.rs`; `u32::MAX`: never). While it is below
+    /// [`SupervisorSettings::change_memory`] the change is under way, and a
+    /// further jump this row alone explains is shown at its sample.
+    pub(super) since_change: u32,
     /// The bits of the last finite value.
     pub(super) last_value: u64,
     /// How many times in a row that value came.
@@ -60,7 +66,7 @@ pub struct Channel {
 impl Channel {
     /// A channel before its first sample.
     pub(super) fn new() -> Self {
-        Self { since_reacquisition: u32::MAX, ..Self::default() }
+        Self { since_reacquisition: u32::MAX, since_change: u32::MAX, ..Self::default() }
     }
 
     /// `value` repeats the last one bit for bit often enough to be stuck.

@@ -361,6 +361,7 @@ impl Supervisor {
         pending.jump = 0.0;
         pending.explained.fill(false);
         pending.ambiguous = false;
+        pending.continued = false;
         pending.reviewed = false;
         pending.retracted.fill(false);
         pending.forked = false;

@@ -185,12 +185,19 @@ impl Supervisor {
         let innovation = filter.innovation();
         (self.pending.nis, self.pending.dof) = (innovation.nis(), innovation.rows_used());
         let alone = self.work.explained.iter().filter(|&&e| e).count() == 1;
+        let continued = alone && self.work.explained.iter().enumerate().any(|(r, &e)| e && self.change_under_way(r));
         if alone {
             filter.snapshot_into(&mut self.work.jumped);
-            // The belief shown: the fault hypothesis's mean, the mixture's covariance.
+        }
+        if alone && !continued {
+            // The belief shown: the mixture's covariance, with the fault hypothesis's
+            // mean (the row moves nothing until its review) or, where such jumps are
+            // shown at once, the jump's.
+            let show = self.settings.show_single_row_jumps;
             let shown = filter.mix_with(&self.work.hypothesis, 0.5).and_then(|()| {
                 filter.snapshot_into(&mut self.work.alternative);
-                self.work.alternative.mean.copy_from_slice(&self.work.hypothesis.mean);
+                let mean = if show { &self.work.jumped.mean } else { &self.work.hypothesis.mean };
+                self.work.alternative.mean.copy_from_slice(mean);
                 filter.restore(&self.work.alternative)
             });
             if shown.is_err() {
@@ -200,6 +207,7 @@ impl Supervisor {
             }
         }
         self.pending.ambiguous = alone;
+        self.pending.continued = continued;
         for r in 0..self.pending.rows.len() {
             if self.work.unexplained[r] {
                 self.pending.rows[r] = RowOutcome::Rejected;
@@ -208,6 +216,14 @@ impl Supervisor {
         }
         self.pending.jump = factor;
         Ok(true)
+    }
+
+    /// A jump of row `r` was confirmed within the last
+    /// [`SupervisorSettings::change_memory`](crate::SupervisorSettings::change_memory)
+    /// samples, this one's review included.
+    fn change_under_way(&self, r: usize) -> bool {
+        let confirmed_now = self.pending.reviewed && self.review.explained[r] && !self.pending.retracted[r];
+        confirmed_now || self.channels[r].since_change < self.settings.change_memory
     }
 
     /// Moves each explained row that the other rows contradict (see

@@ -48,7 +48,7 @@ use crate::filter::{FilterKind, Snapshot};
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 6;
+const VERSION: u64 = 7;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -225,6 +225,7 @@ record!(Channel {
     stuck,
     since_reacquisition,
     suspended,
+    since_change,
     last_value,
     repeats,
     step_multiple,
@@ -584,6 +585,7 @@ mod tests {
             stuck: 5,
             since_reacquisition: 6,
             suspended: true,
+            since_change: 7,
             last_value: 1.5f64.to_bits(),
             repeats: 9,
             step_multiple: -3,
@@ -609,7 +611,7 @@ mod tests {
         let mut words = Vec::new();
         channel.save(&mut words);
         assert_eq!(words.len(), Channel::WORDS);
-        assert_eq!(words.len(), 28);
+        assert_eq!(words.len(), 29);
         assert_eq!(Channel::load(&words, "channel 0").unwrap(), channel);
     }
 

@@ -302,6 +302,12 @@ impl Supervisor {
                 changed(change);
             }
         }
+        for (c, channel) in self.channels.iter_mut().enumerate() {
+            let reviewed = outcome.reviewed && self.review.explained[c] && !outcome.retracted[c];
+            let confirmed_at_once = outcome.jump > 0.0 && !outcome.ambiguous && outcome.explained[c];
+            channel.since_change =
+                if reviewed || confirmed_at_once { 0 } else { channel.since_change.saturating_add(1) };
+        }
         self.commit_wiring();
         self.reacquisition.count(&self.pending, self.settings.max_inflation);
         self.commit_rival();

@@ -67,9 +67,14 @@ pub struct Outcome {
     pub jump: f64,
     /// Per row: its failure was explained by that jump and it was used.
     pub explained: Vec<bool>,
-    /// One row alone explained it: the belief is the mixture of the jump and
-    /// the fault hypothesis, reviewed at the next sample.
+    /// One row alone explained it: the jump is reviewed at the next sample.
+    /// The belief shown is the mixture of the jump and the fault hypothesis
+    /// (the fault's mean), unless [`Outcome::continued`].
     pub ambiguous: bool,
+    /// That row's change was under way (a jump of it confirmed within
+    /// [`SupervisorSettings::change_memory`](crate::SupervisorSettings::change_memory)
+    /// samples): the belief shown is the jump's.
+    pub continued: bool,
     /// The jump of the previous sample was reviewed at this one.
     pub reviewed: bool,
     /// Per row: the review found the previous sample's jump a gross error of
@@ -125,6 +130,7 @@ impl Outcome {
             jump: 0.0,
             explained: vec![false; m],
             ambiguous: false,
+            continued: false,
             reviewed: false,
             retracted: vec![false; m],
             adaptation_ratios: 0.0,

@@ -252,6 +252,7 @@ impl Supervisor {
         pending.inflation = 1.0;
         pending.jump = 0.0;
         pending.ambiguous = false;
+        pending.continued = false;
         pending.explained.fill(false);
         pending.steps.fill(0.0);
         Ok(())

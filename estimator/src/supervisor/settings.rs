@@ -36,6 +36,24 @@ pub struct SupervisorSettings {
     /// other rows do not contradict, is used from `P + c·Q` instead of being
     /// rejected, and reviewed at the next sample (`jump.rs`). Default on.
     pub jumps: bool,
+    /// Samples after a confirmed jump of a row (`jump.rs`) during which a
+    /// further jump that row alone explains is shown at its sample, and
+    /// still reviewed at the next: the change under way goes on (a weld's
+    /// impact rings for tens of samples at 1 kHz), where a new spike would
+    /// have to come right after a confirmed change. 0: every jump one row
+    /// alone explains waits for its review. Default 10.
+    pub change_memory: u32,
+    /// The belief shown after a jump that one row alone explains, before any
+    /// change of that row is under way, has the jump's mean instead of the
+    /// fault hypothesis's (the covariance is the mixture's either way, and
+    /// the review at the next sample still decides). One sample cannot tell
+    /// a spike from a step: `false` (the default) holds the estimate until
+    /// the review confirms the change, so a spike moves nothing; `true`
+    /// follows an impact at its sample, so a spike shows for one sample,
+    /// inside its σ. For unknown inputs that one sensor alone reads at
+    /// their first sample, where impacts are the signal (S2's and S3's
+    /// wheel–rail forces behind their axle boxes).
+    pub show_single_row_jumps: bool,
     /// A re-acquisition keeps the update the gate alone would have made as
     /// a rival, and the data of the next samples decide which of the two
     /// stays (`rival.rs`). Default on.
@@ -83,6 +101,8 @@ impl Default for SupervisorSettings {
             consistency_margin: 3.0,
             max_inflation: 1e8,
             jumps: true,
+            change_memory: 10,
+            show_single_row_jumps: false,
             revise: true,
             adaptation_window: 200,
             min_process_noise_scale: 1e-2,

@@ -362,6 +362,20 @@ fn common_variables(sample_time: f64, filter: FilterKind, supervision: &Supervis
              is used (the covariance opened in their directions) instead of rejected, and reviewed at the next sample",
         ),
         Variable::integer_parameter(
+            "show_single_row_jumps",
+            u32::from(supervision.show_single_row_jumps),
+            (0, 1),
+            "1: a jump that one input alone explains is shown at its sample (the review at the next sample still \
+             retracts a spike); 0: the estimate holds until that review confirms it, so a spike moves nothing",
+        ),
+        Variable::integer_parameter(
+            "change_memory",
+            supervision.change_memory,
+            (0, 1_000_000),
+            "samples after a confirmed jump of an input during which a further jump that input alone explains is \
+             shown at its sample (the change under way goes on, as an impact rings)",
+        ),
+        Variable::integer_parameter(
             "adaptation_window",
             supervision.adaptation_window as u32,
             (0, 1_000_000),

@@ -456,8 +456,14 @@ pub(super) fn descriptor() -> Descriptor {
         // noise is set for the impacts (a weld moves a force by tens of kN in a
         // few ms), which a smooth stretch says nothing of; learnt there, its
         // scale would fall to its bound and the next weld fail the gate. The
-        // jumps are taken.
-        supervision: SupervisorSettings { min_process_noise_scale: 1.0, wiring_sigmas: 8.0, ..SupervisorSettings::default() },
+        // jumps are taken, and one that a sensor alone explains is shown at
+        // its sample, as S2's.
+        supervision: SupervisorSettings {
+            min_process_noise_scale: 1.0,
+            wiring_sigmas: 8.0,
+            show_single_row_jumps: true,
+            ..SupervisorSettings::default()
+        },
         derive,
         build_steps: no_quantized_steps,
         unknown_inputs: &WheelRailRoll::UNKNOWN_INPUTS,

@@ -264,9 +264,13 @@ pub fn supervised_filter(
     let filter = estimator::build_filter(kind, model, tuning.noise(), &tuning.prior(&vehicle), tuning.unscented)
         .map_err(|e| format!("setup: {e}"))?;
     let unknown_inputs = &WheelRailVertical::UNKNOWN_INPUTS;
-    // The FMU's: the forces' noise adapts upwards only (see `kalfmu_fmu`'s S2 table), jumps taken.
-    let settings =
-        estimator::SupervisorSettings { min_process_noise_scale: 1.0, ..estimator::SupervisorSettings::default() };
+    // The FMU's: the forces' noise adapts upwards only (see `kalfmu_fmu`'s S2 table), jumps
+    // taken, one an axle box alone explains shown at its sample.
+    let settings = estimator::SupervisorSettings {
+        min_process_noise_scale: 1.0,
+        show_single_row_jumps: true,
+        ..estimator::SupervisorSettings::default()
+    };
     let supervisor = estimator::Supervisor::new(settings, 7)
         .and_then(|s| s.with_jump_states(filter.state_dim(), unknown_inputs))
         .map_err(|e| format!("setup: {e}"))?;

@@ -318,7 +318,11 @@ pub fn run_filter(
     let unscented = UnscentedParams { alpha: 1.0, beta: 2.0, kappa: 0.0 };
     let filter =
         build_filter(kind, model, tuning.noise()?, &tuning.prior(&vehicle), unscented).map_err(|e| e.to_string())?;
-    let settings = SupervisorSettings { min_process_noise_scale: 1.0, ..SupervisorSettings::default() };
+    let settings = SupervisorSettings {
+        min_process_noise_scale: 1.0,
+        show_single_row_jumps: true,
+        ..SupervisorSettings::default()
+    };
     let supervisor = Supervisor::new(settings, 28)
         .and_then(|s| s.with_jump_states(42, &WheelRailRoll::UNKNOWN_INPUTS))
         .map_err(|e| e.to_string())?;
