@@ -68,6 +68,15 @@ pub enum Event {
         /// The sample's instant (s).
         time: f64,
     },
+    /// A jump that `channel` alone explained, and that its review had
+    /// confirmed, was undone: the belief without it explained the later
+    /// samples better (`rival.rs`).
+    JumpUndone {
+        /// The channel (row of `z`) whose failure the jump explained.
+        channel: usize,
+        /// The sample's instant (s).
+        time: f64,
+    },
     /// The filter restarted from where its states had been while it was
     /// healthy (`restart.rs`): it had used no row for a whole window, its
     /// belief had left its plausible range, or, inconsistent, a challenger
@@ -458,7 +467,10 @@ impl SupervisedFilter {
             self.events.push(Event::Reacquired { channel, time });
         }
         let undone = match self.supervisor.pending().revision {
-            crate::supervisor::Revision::Undone { trigger } => Some(trigger),
+            crate::supervisor::Revision::Undone { trigger } => {
+                Some(Event::ReacquisitionUndone { channel: trigger, time })
+            }
+            crate::supervisor::Revision::JumpUndone { trigger } => Some(Event::JumpUndone { channel: trigger, time }),
             _ => None,
         };
         let pending = self.supervisor.pending();
@@ -479,8 +491,8 @@ impl SupervisedFilter {
                 self.events.push(Event::Wiring { channel, inconsistent, left_out, scale, offset, time });
             }
         }
-        if let Some(channel) = undone {
-            self.events.push(Event::ReacquisitionUndone { channel, time });
+        if let Some(event) = undone {
+            self.events.push(event);
         }
         if self.supervisor.consistent() != was_consistent {
             self.events.push(Event::Consistent { consistent: self.supervisor.consistent(), time });

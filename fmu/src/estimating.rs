@@ -344,6 +344,11 @@ impl Estimating {
                     "logStatusWarning",
                     format!("the re-acquisition triggered by input {} is undone at t = {time} s: the belief that left that input out explains the samples since better, so it was the sensor; the outputs are that belief's", input(channel)),
                 ),
+                Event::JumpUndone { channel, time } => (
+                    Fmi2Status::Warning,
+                    "logStatusWarning",
+                    format!("the jump that input {} alone showed is undone at t = {time} s: the belief that left that input out explains the samples since better, so it was the sensor; the outputs are that belief's", input(channel)),
+                ),
                 Event::Restarted { time } => (
                     Fmi2Status::Warning,
                     "logStatusWarning",

@@ -365,6 +365,8 @@ impl Supervisor {
         pending.reviewed = false;
         pending.retracted.fill(false);
         pending.forked = false;
+        pending.challenged = false;
+        pending.jump_forked = None;
         pending.revision = Revision::None;
         pending.restarted = false;
         self.work.main_score = 0.0;

@@ -308,6 +308,9 @@ impl Supervisor {
         std::mem::swap(&mut self.work.before, winner);
         if faulty {
             self.pending.retracted.copy_from_slice(&self.review.explained);
+        } else if let Some(trigger) = self.review.explained.iter().position(|&e| e) {
+            // Confirmed: the fault hypothesis, predicted here, stays as the rival.
+            self.fork_jump_rival(filter, trigger)?;
         }
         filter.restore(&self.work.before)
     }

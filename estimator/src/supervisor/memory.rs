@@ -8,7 +8,7 @@
 //! ```text
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
-//!                 suspended, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
+//!                 suspended, since_change, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
 //!                 bias_evidence, bias_weight, scale_evidence, scale_weight, scale_norm,
 //!                 offset_sum, offset_weight, fit_evidence, fit_e, fit_g, fit_norm, fit_offset, fit_weight,
 //!                 prediction_mean, predictions
@@ -20,7 +20,7 @@
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
-//! RivalHeader     active, challenger, trigger, evidence, entries, kind, time, inputs, states
+//! RivalHeader     active, challenger, jump, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! ClimateHeader   learnt, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
@@ -192,6 +192,8 @@ struct RivalHeader {
     active: bool,
     /// It is a challenger, not a re-acquisition's rival.
     challenger: bool,
+    /// It is a confirmed single-row jump's fault hypothesis.
+    jump: bool,
     /// The channel that triggered the re-acquisition.
     trigger: usize,
     /// The evidence for it so far (nats).
@@ -213,7 +215,7 @@ struct ClimateHeader {
 
 record!(ClimateHeader { learnt, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
-record!(RivalHeader { active, challenger, trigger, evidence, entries, kind, time, inputs, states });
+record!(RivalHeader { active, challenger, jump, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
 record!(Adaptation { log_scale, mean_ratio });
 record!(Jumps { taken, retracted });
@@ -323,6 +325,7 @@ impl Supervisor {
         RivalHeader {
             active,
             challenger: active && rival.challenger,
+            jump: active && rival.jump,
             trigger: if active { rival.trigger } else { 0 },
             evidence: if active { rival.evidence } else { 0.0 },
             entries: if active { rival.entries.len() } else { 0 },
@@ -545,6 +548,7 @@ impl Supervisor {
         }
         self.rival.active = rival.active;
         self.rival.challenger = rival.challenger;
+        self.rival.jump = rival.jump;
         (self.rival.trigger, self.rival.evidence) = (rival.trigger, rival.evidence);
         self.rival.entries.clear();
         self.rival.entries.extend_from_slice(&rival_entries);

@@ -34,6 +34,13 @@ pub enum Revision {
         /// The channel whose failures triggered the re-acquisition.
         trigger: usize,
     },
+    /// The rival won: the jump that `trigger` alone explained, which its
+    /// review had confirmed, is undone (the sensor, not the state, had
+    /// changed), and this update is the rival's.
+    JumpUndone {
+        /// The channel whose failure the jump explained.
+        trigger: usize,
+    },
     /// The challenger of an inconsistent filter (started from where the
     /// states have been) won: the filter restarts, and this update is the
     /// challenger's.
@@ -94,6 +101,9 @@ pub struct Outcome {
     /// The rival forked at this sample is a challenger of the inconsistent
     /// filter, started from where the states have been (`rival.rs`).
     pub challenged: bool,
+    /// The rival forked at this sample is the fault hypothesis of a jump that
+    /// one row alone explained, which its review has just confirmed (`rival.rs`).
+    pub jump_forked: Option<usize>,
     /// What became of the rival of an earlier re-acquisition or challenge.
     pub revision: Revision,
     /// The filter restarted at this sample (`restart.rs`) before its update.
@@ -112,7 +122,7 @@ impl Outcome {
     /// This update is a rival's: a re-acquisition undone, or a challenger
     /// that restarted the filter.
     pub fn replaced(&self) -> bool {
-        matches!(self.revision, Revision::Undone { .. } | Revision::Restarted)
+        matches!(self.revision, Revision::Undone { .. } | Revision::JumpUndone { .. } | Revision::Restarted)
     }
 
     /// The outcome before any sample, for `m` rows: all missing, nothing done.
@@ -138,6 +148,7 @@ impl Outcome {
             adaptation_rows: 0,
             forked: false,
             challenged: false,
+            jump_forked: None,
             revision: Revision::None,
             restarted: false,
             watch: vec![(0, 0); m],

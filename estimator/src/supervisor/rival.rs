@@ -62,6 +62,8 @@ pub(super) struct Rival {
     /// It is a challenger (started from where the states have been), not a
     /// re-acquisition's rival.
     pub challenger: bool,
+    /// It is the fault hypothesis of a confirmed single-row jump.
+    pub jump: bool,
     /// The channel whose failures triggered the re-acquisition.
     pub trigger: usize,
     /// The evidence so far for the rival over the re-acquired belief (nats).
@@ -78,6 +80,7 @@ impl Rival {
         Self {
             active: false,
             challenger: false,
+            jump: false,
             trigger: 0,
             evidence: 0.0,
             belief: empty_snapshot(),
@@ -148,6 +151,28 @@ impl Supervisor {
         self.update_rival(filter)
     }
 
+    /// Keeps, when the review of a jump that row `trigger` alone explained
+    /// has just confirmed it, the fault hypothesis (in `work.hypothesis`,
+    /// predicted to this sample) updated with this sample's rows as the rival
+    /// to be: a spike of a few samples looks like a step and back, and only
+    /// the samples after it tell, through the other rows, whether the state
+    /// moved (see the module documentation). Leaves the filter at `before`.
+    pub(super) fn fork_jump_rival(
+        &mut self,
+        filter: &mut dyn StateEstimator,
+        trigger: usize,
+    ) -> Result<(), FilterError> {
+        if !self.settings.revise || self.rival.active || self.pending.forked {
+            return Ok(());
+        }
+        filter.restore(&self.work.hypothesis)?;
+        if self.update_rival(filter)? {
+            self.pending.forked = true;
+            self.pending.jump_forked = Some(trigger);
+        }
+        Ok(())
+    }
+
     /// Starts a challenger (see the module documentation) at this sample when
     /// one is due: its belief from where the states have been, updated with
     /// this sample's rows (its own gate), becomes the rival to be. Leaves the
@@ -155,6 +180,7 @@ impl Supervisor {
     pub(super) fn fork_challenger(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
         let due = self.settings.revise
             && !self.rival.active
+            && !self.pending.forked
             && !self.window.consistent()
             && !self.channels.iter().any(|c| c.suspended)
             && self.reacquisition.since_challenge as usize >= self.settings.window
@@ -228,13 +254,17 @@ impl Supervisor {
         let evidence = self.rival.evidence + delta;
         let threshold = self.thresholds.adaptation_clip;
         let horizon = self.rival.entries.len() + 1 >= self.settings.window;
-        // A challenger must lead clearly: the incumbent is kept on a near tie.
-        let ahead = evidence >= threshold || (horizon && evidence > 0.0 && !self.rival.challenger);
+        // A challenger, and a confirmed jump's fault hypothesis, must lead
+        // clearly: the incumbent is kept on a near tie.
+        let clearly = self.rival.challenger || self.rival.jump;
+        let ahead = evidence >= threshold || (horizon && evidence > 0.0 && !clearly);
         self.pending.revision = if ahead && self.rival.challenger {
             Revision::Restarted
+        } else if ahead && self.rival.jump {
+            Revision::JumpUndone { trigger: self.rival.trigger }
         } else if ahead {
             Revision::Undone { trigger: self.rival.trigger }
-        } else if evidence <= -threshold || horizon {
+        } else if (evidence <= -threshold && self.incumbent_explains_all()) || horizon {
             Revision::Confirmed
         } else {
             Revision::Weighed(delta)
@@ -258,6 +288,16 @@ impl Supervisor {
         Ok(())
     }
 
+    /// Whether the filter's own update at this sample rejected no row: a
+    /// confirmed jump's fault hypothesis is dropped only then (or at the
+    /// window's end). While the sensor the jump followed is still off, each
+    /// belief fails one row (the jump the other sensors, the fault hypothesis
+    /// that sensor), their scores nearly tie, and the evidence drifts by the
+    /// rows' variances alone; the samples after the episode decide.
+    fn incumbent_explains_all(&self) -> bool {
+        !self.rival.jump || !self.pending.rows.contains(&RowOutcome::Rejected)
+    }
+
     /// Counts the pending outcome's fork or revision (before the consistency
     /// window takes the sample).
     pub(super) fn commit_rival(&mut self) {
@@ -267,7 +307,8 @@ impl Supervisor {
         if self.pending.forked {
             self.rival.active = true;
             self.rival.challenger = self.pending.challenged;
-            self.rival.trigger = self.pending.reacquired.unwrap_or(0);
+            self.rival.jump = self.pending.jump_forked.is_some();
+            self.rival.trigger = self.pending.reacquired.or(self.pending.jump_forked).unwrap_or(0);
             self.rival.evidence = 0.0;
             self.rival.entries.clear();
             std::mem::swap(&mut self.rival.belief, &mut self.work.rival_next);
@@ -287,6 +328,12 @@ impl Supervisor {
                 self.channels[self.rival.trigger].suspended = true;
                 self.review.active = false;
                 self.reacquisition.undone = self.reacquisition.undone.saturating_add(1);
+            }
+            Revision::JumpUndone { .. } => {
+                self.rival.active = false;
+                self.window.replace_latest(&self.rival.entries);
+                self.review.active = false;
+                self.jumps.retracted = self.jumps.retracted.saturating_add(1);
             }
             Revision::Restarted => {
                 // The filter, not its sensors, was wrong: every suspension is lifted.
