@@ -268,7 +268,9 @@ impl Supervisor {
         if let Some(steps) = &self.steps {
             steps.take(&self.channels, &self.work.residuals, &mut self.pending, &mut self.work.before, filter)?;
         }
-        if rival {
+        // A rival forked at this sample (a re-acquisition's or a challenger) has
+        // replaced a confirmed jump's fault hypothesis, which is not weighed.
+        if rival && !self.pending.forked {
             self.weigh_rival(filter)?;
         }
         self.work.posterior.clear();

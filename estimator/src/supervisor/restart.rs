@@ -137,10 +137,18 @@ impl Supervisor {
             self.review.active = false;
             return;
         }
-        // Healthy: consistent, every row offered used, nothing under revision.
+        // Healthy: consistent, every row offered used, nothing under revision but a
+        // confirmed jump's fault hypothesis (a precaution kept after most jumps; a
+        // belief that the jump dragged rejects rows, and is not learnt from).
         let whole = !self.pending.rows.contains(&super::outcome::RowOutcome::Rejected);
-        let healthy = self.window.consistent() && self.pending.dof > 0 && whole && !self.rival.active;
-        if healthy && self.pending.revision == super::outcome::Revision::None {
+        let doubted = self.rival.active && !self.rival.jump;
+        let healthy = self.window.consistent() && self.pending.dof > 0 && whole && !doubted;
+        let settled = match self.pending.revision {
+            super::outcome::Revision::None => true,
+            super::outcome::Revision::Weighed(_) => self.rival.jump,
+            _ => false,
+        };
+        if healthy && settled {
             let work = &self.work;
             self.climate.learn(&work.posterior, &work.posterior_variance, MEMORY_WINDOWS * self.settings.window);
         }

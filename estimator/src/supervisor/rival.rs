@@ -114,7 +114,8 @@ impl Supervisor {
         filter: &mut dyn StateEstimator,
         failing: impl Fn(usize, f64) -> bool,
     ) -> Result<(), FilterError> {
-        if !self.settings.revise || self.rival.active || self.pending.forked {
+        // A re-acquisition's rival replaces a confirmed jump's fault hypothesis.
+        if !self.settings.revise || (self.rival.active && !self.rival.jump) || self.pending.forked {
             return Ok(());
         }
         let work = &mut self.work;
@@ -179,7 +180,7 @@ impl Supervisor {
     /// filter at `before`.
     pub(super) fn fork_challenger(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
         let due = self.settings.revise
-            && !self.rival.active
+            && (!self.rival.active || self.rival.jump)
             && !self.pending.forked
             && !self.window.consistent()
             && !self.channels.iter().any(|c| c.suspended)
