@@ -44,6 +44,20 @@
 //! ([`Revision::Restarted`]): the filter, not its sensors, was wrong, so
 //! every suspended channel is taken back.
 //!
+//! **A confirmed jump's fault hypothesis.** A jump that one row alone
+//! explains is reviewed at the next sample (`jump.rs`); a fault of a few
+//! samples on that row passes the review as a step and back, and the jump
+//! drags the states its unknown input drives, so that the other rows fail
+//! the gate afterwards. So a review that confirms such a jump keeps the
+//! belief without that row as the rival. While the sensor is still off each
+//! belief fails one row and their scores nearly tie: the jumped belief is
+//! kept only once it leads by `c` nats with no row of its own rejected, or
+//! at the window's end; the rival must lead clearly, as a challenger must,
+//! and its win is [`Revision::JumpUndone`]. It is a precaution, kept after
+//! most confirmed jumps, so a re-acquisition's rival or a challenger
+//! replaces it, and the restart goes on learning while it lives
+//! (`restart.rs`).
+//!
 //! The cost is a second predict and update per sample while a rival lives
 //! (at most a window), none otherwise.
 
@@ -64,7 +78,8 @@ pub(super) struct Rival {
     pub challenger: bool,
     /// It is the fault hypothesis of a confirmed single-row jump.
     pub jump: bool,
-    /// The channel whose failures triggered the re-acquisition.
+    /// The channel whose failures triggered the re-acquisition, or whose
+    /// failure the jump explained.
     pub trigger: usize,
     /// The evidence so far for the rival over the re-acquired belief (nats).
     pub evidence: f64,
