@@ -20,7 +20,7 @@
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
-//! RivalHeader     active, challenger, jump, trigger, evidence, entries, kind, time, inputs, states
+//! RivalHeader     active, challenger, jump, clean_run, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! ClimateHeader   learnt, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
@@ -194,6 +194,8 @@ struct RivalHeader {
     challenger: bool,
     /// It is a confirmed single-row jump's fault hypothesis.
     jump: bool,
+    /// Samples in a row the filter's own update rejected no row (a jump's rival).
+    clean_run: u32,
     /// The channel that triggered the re-acquisition.
     trigger: usize,
     /// The evidence for it so far (nats).
@@ -215,7 +217,7 @@ struct ClimateHeader {
 
 record!(ClimateHeader { learnt, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
-record!(RivalHeader { active, challenger, jump, trigger, evidence, entries, kind, time, inputs, states });
+record!(RivalHeader { active, challenger, jump, clean_run, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
 record!(Adaptation { log_scale, mean_ratio });
 record!(Jumps { taken, retracted });
@@ -326,6 +328,7 @@ impl Supervisor {
             active,
             challenger: active && rival.challenger,
             jump: active && rival.jump,
+            clean_run: if active { rival.clean_run } else { 0 },
             trigger: if active { rival.trigger } else { 0 },
             evidence: if active { rival.evidence } else { 0.0 },
             entries: if active { rival.entries.len() } else { 0 },
@@ -549,6 +552,7 @@ impl Supervisor {
         self.rival.active = rival.active;
         self.rival.challenger = rival.challenger;
         self.rival.jump = rival.jump;
+        self.rival.clean_run = rival.clean_run;
         (self.rival.trigger, self.rival.evidence) = (rival.trigger, rival.evidence);
         self.rival.entries.clear();
         self.rival.entries.extend_from_slice(&rival_entries);

@@ -78,6 +78,9 @@ pub(super) struct Rival {
     pub challenger: bool,
     /// It is the fault hypothesis of a confirmed single-row jump.
     pub jump: bool,
+    /// Samples in a row, up to the last committed one, in which the filter's
+    /// own update rejected no row.
+    pub clean_run: u32,
     /// The channel whose failures triggered the re-acquisition, or whose
     /// failure the jump explained.
     pub trigger: usize,
@@ -96,6 +99,7 @@ impl Rival {
             active: false,
             challenger: false,
             jump: false,
+            clean_run: 0,
             trigger: 0,
             evidence: 0.0,
             belief: empty_snapshot(),
@@ -280,7 +284,7 @@ impl Supervisor {
             Revision::JumpUndone { trigger: self.rival.trigger }
         } else if ahead {
             Revision::Undone { trigger: self.rival.trigger }
-        } else if (evidence <= -threshold && self.incumbent_explains_all()) || horizon {
+        } else if (evidence <= -threshold && self.incumbent_explains_all()) || self.jump_settled(evidence) || horizon {
             Revision::Confirmed
         } else {
             Revision::Weighed(delta)
@@ -314,6 +318,19 @@ impl Supervisor {
         !self.rival.jump || !self.pending.rows.contains(&RowOutcome::Rejected)
     }
 
+    /// A confirmed jump's fault hypothesis is dropped, too, once the jumped
+    /// belief is ahead and has rejected no row for `change_memory` samples in
+    /// a row, this one included: the change it followed has settled, and the
+    /// rival would otherwise cost a second predict and update per sample for
+    /// a whole window after most jumps.
+    fn jump_settled(&self, evidence: f64) -> bool {
+        let clean = !self.pending.rows.contains(&RowOutcome::Rejected);
+        self.rival.jump
+            && clean
+            && evidence <= 0.0
+            && self.rival.clean_run.saturating_add(1) >= self.settings.change_memory
+    }
+
     /// Counts the pending outcome's fork or revision (before the consistency
     /// window takes the sample).
     pub(super) fn commit_rival(&mut self) {
@@ -324,6 +341,7 @@ impl Supervisor {
             self.rival.active = true;
             self.rival.challenger = self.pending.challenged;
             self.rival.jump = self.pending.jump_forked.is_some();
+            self.rival.clean_run = 0;
             self.rival.trigger = self.pending.reacquired.or(self.pending.jump_forked).unwrap_or(0);
             self.rival.evidence = 0.0;
             self.rival.entries.clear();
@@ -333,6 +351,8 @@ impl Supervisor {
         match self.pending.revision {
             Revision::None => {}
             Revision::Weighed(delta) => {
+                let clean = !self.pending.rows.contains(&RowOutcome::Rejected);
+                self.rival.clean_run = if clean { self.rival.clean_run.saturating_add(1) } else { 0 };
                 self.rival.evidence += delta;
                 self.rival.entries.push(self.work.rival_entry);
                 std::mem::swap(&mut self.rival.belief, &mut self.work.rival_next);
