@@ -155,6 +155,11 @@ impl Outcome {
         }
     }
 
+    /// The gate rejected none of the rows.
+    pub(super) fn rejected_none(&self) -> bool {
+        !self.rows.contains(&RowOutcome::Rejected)
+    }
+
     /// Rows were available (not missing) and the update used none of them.
     pub(super) fn nothing_used(&self) -> bool {
         self.rows.iter().any(|r| *r != RowOutcome::Missing) && self.dof == 0

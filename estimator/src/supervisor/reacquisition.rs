@@ -33,7 +33,7 @@
 
 use super::channel::Channel;
 use super::gate::Pass;
-use super::outcome::{Outcome, RowOutcome};
+use super::outcome::Outcome;
 use super::settings::SupervisorSettings;
 
 /// What the supervisor remembers of its re-acquisitions.
@@ -101,7 +101,7 @@ impl Reacquisition {
         self.lost_run = if outcome.nothing_used() { self.lost_run.saturating_add(1) } else { 0 };
         self.count = self.count.saturating_add(u64::from(reacquired));
         self.since_last = if reacquired { 0 } else { self.since_last.saturating_add(1) };
-        let passed_whole = outcome.dof > 0 && !outcome.rows.contains(&RowOutcome::Rejected);
+        let passed_whole = outcome.dof > 0 && outcome.rejected_none();
         self.inflation = if reacquired {
             (self.inflation * outcome.inflation).min(max_inflation)
         } else if passed_whole {

@@ -140,7 +140,7 @@ impl Supervisor {
         // Healthy: consistent, every row offered used, nothing under revision but a
         // confirmed jump's fault hypothesis (a precaution kept after most jumps; a
         // belief that the jump dragged rejects rows, and is not learnt from).
-        let whole = !self.pending.rows.contains(&super::outcome::RowOutcome::Rejected);
+        let whole = self.pending.rejected_none();
         let doubted = self.rival.active && !self.rival.jump;
         let healthy = self.window.consistent() && self.pending.dof > 0 && whole && !doubted;
         let settled = match self.pending.revision {

@@ -315,7 +315,7 @@ impl Supervisor {
     /// that sensor), their scores nearly tie, and the evidence drifts by the
     /// rows' variances alone; the samples after the episode decide.
     fn incumbent_explains_all(&self) -> bool {
-        !self.rival.jump || !self.pending.rows.contains(&RowOutcome::Rejected)
+        !self.rival.jump || self.pending.rejected_none()
     }
 
     /// A confirmed jump's fault hypothesis is dropped, too, once the jumped
@@ -324,9 +324,8 @@ impl Supervisor {
     /// rival would otherwise cost a second predict and update per sample for
     /// a whole window after most jumps.
     fn jump_settled(&self, evidence: f64) -> bool {
-        let clean = !self.pending.rows.contains(&RowOutcome::Rejected);
         self.rival.jump
-            && clean
+            && self.pending.rejected_none()
             && evidence <= 0.0
             && self.rival.clean_run.saturating_add(1) >= self.settings.change_memory
     }
@@ -351,8 +350,8 @@ impl Supervisor {
         match self.pending.revision {
             Revision::None => {}
             Revision::Weighed(delta) => {
-                let clean = !self.pending.rows.contains(&RowOutcome::Rejected);
-                self.rival.clean_run = if clean { self.rival.clean_run.saturating_add(1) } else { 0 };
+                let clean_run = self.rival.clean_run.saturating_add(1);
+                self.rival.clean_run = if self.pending.rejected_none() { clean_run } else { 0 };
                 self.rival.evidence += delta;
                 self.rival.entries.push(self.work.rival_entry);
                 std::mem::swap(&mut self.rival.belief, &mut self.work.rival_next);
