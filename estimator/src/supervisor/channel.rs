@@ -19,8 +19,10 @@ pub struct Channel {
     pub stuck: u64,
     /// Samples since this channel last triggered a re-acquisition (`u32::MAX`: never).
     pub(super) since_reacquisition: u32,
-    /// It failed again right after its re-acquisition: broken, it triggers
-    /// none until it passes the gate.
+    /// The data found the channel, not the state, wrong: it failed again
+    /// right after its re-acquisition, or a jump it alone explained was
+    /// undone (`rival.rs`). Until it passes the gate again its failures are
+    /// its own: it triggers no re-acquisition and explains no jump.
     pub suspended: bool,
     /// Samples since a jump that this channel's row explained was confirmed:
     /// by another row at its sample, or by its review at the next

@@ -426,7 +426,9 @@ impl Supervisor {
             self.pending.worst_ratio = worst;
             let clip = row_threshold.min(1e6);
             let mut clipped = 0.0;
-            work.main_score = super::rival::score(innovation, self.thresholds.adaptation_clip, clip, &mut clipped);
+            let disputed = self.rival.disputed();
+            work.main_score =
+                super::rival::score(innovation, self.thresholds.adaptation_clip, clip, disputed, &mut clipped);
             self.pending.clipped_ratios = clipped;
             self.pending.gated_rows = dof;
             let r_given = filter.noise().r();

@@ -49,11 +49,17 @@
 //! samples on that row passes the review as a step and back, and the jump
 //! drags the states its unknown input drives, so that the other rows fail
 //! the gate afterwards. So a review that confirms such a jump keeps the
-//! belief without that row as the rival. While the sensor is still off each
-//! belief fails one row and their scores nearly tie: the jumped belief is
-//! kept only once it leads by `c` nats with no row of its own rejected, or
-//! at the window's end; the rival must lead clearly, as a challenger must,
-//! and its win is [`Revision::JumpUndone`]. It is a precaution, kept after
+//! belief without that row as the rival. That row is not scored: the jumped
+//! belief follows it by construction and the rival leaves it out while it
+//! fails, so it would favour the jump for as long as the sensor is off (S2,
+//! an axle box read ×9.81 for 14 samples: the jump was kept after 7). The
+//! other rows decide, through the states the jump dragged. The jumped
+//! belief is kept only once it leads by `c` nats with no row of its own
+//! rejected, or at the window's end; the rival must lead clearly, as a
+//! challenger must, and its win is [`Revision::JumpUndone`]: the sensor was
+//! wrong, so its channel is suspended (its failures explain no further jump
+//! until it passes the gate again; without that the sensor, still off, was
+//! followed again at the next sample). It is a precaution, kept after
 //! most confirmed jumps, so a re-acquisition's rival or a challenger
 //! replaces it, and the restart goes on learning while it lives
 //! (`restart.rs`).
@@ -106,18 +112,33 @@ impl Rival {
             entries: Vec::with_capacity(window),
         }
     }
+
+    /// The row the two beliefs disagree about by construction: a confirmed
+    /// jump's row, which the jumped belief follows and its fault hypothesis
+    /// leaves out. It is not scored (see the module documentation).
+    pub fn disputed(&self) -> Option<usize> {
+        (self.active && self.jump).then_some(self.trigger)
+    }
 }
 
-/// The robust log-likelihood of an update's predictions on its rows (see the
-/// module documentation); the rows' clipped normalised innovations are
-/// summed into `clipped` at the gate's own clip.
-pub(super) fn score(innovation: &Innovation, clip: f64, gate_clip: f64, clipped: &mut f64) -> f64 {
+/// The robust log-likelihood of an update's predictions on its rows but the
+/// `disputed` one (see the module documentation); every row's clipped
+/// normalised innovation is summed into `clipped` at the gate's own clip.
+pub(super) fn score(
+    innovation: &Innovation,
+    clip: f64,
+    gate_clip: f64,
+    disputed: Option<usize>,
+    clipped: &mut f64,
+) -> f64 {
     let mut score = 0.0;
     for &r in innovation.rows() {
         let variance = innovation.covariance()[(r, r)];
         let ratio = innovation.residual()[r].powi(2) / variance;
         let ratio = if ratio.is_nan() { f64::INFINITY } else { ratio };
-        score -= 0.5 * (crate::math::ln(variance) + ratio.min(clip));
+        if disputed != Some(r) {
+            score -= 0.5 * (crate::math::ln(variance) + ratio.min(clip));
+        }
         *clipped += ratio.min(gate_clip);
     }
     score
@@ -237,7 +258,7 @@ impl Supervisor {
         }
         let innovation = filter.innovation();
         let mut clipped = 0.0;
-        work.rival_score = score(innovation, clip, gate_clip, &mut clipped);
+        work.rival_score = score(innovation, clip, gate_clip, self.rival.disputed(), &mut clipped);
         work.rival_entry = WindowEntry { clipped_ratios: clipped, rows: innovation.rows_used() };
         work.z_hypothesis.copy_from_slice(&work.z_gated);
         work.rival_rows.copy_from_slice(&self.pending.rows);
@@ -364,9 +385,14 @@ impl Supervisor {
                 self.review.active = false;
                 self.reacquisition.undone = self.reacquisition.undone.saturating_add(1);
             }
-            Revision::JumpUndone { .. } => {
+            Revision::JumpUndone { trigger } => {
                 self.rival.active = false;
                 self.window.replace_latest(&self.rival.entries);
+                // Its sensor, not the state, had changed: no change is under
+                // way, and its failures explain no jump until it passes again.
+                let channel = &mut self.channels[trigger];
+                channel.suspended = true;
+                channel.since_change = u32::MAX;
                 self.review.active = false;
                 self.jumps.retracted = self.jumps.retracted.saturating_add(1);
             }

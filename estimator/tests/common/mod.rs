@@ -106,11 +106,26 @@ pub fn s1_model() -> Discretized<Oscillator2DofLoad> {
 /// breakpoints of the spring, integrated at 1e-4 s, accelerations with noise.
 /// `amplitude` scales the load (1: about ±12 N, z₁ up to about 0.13 m).
 pub fn s1_measurements(steps: usize, dt: f64, amplitude: f64, noise_std: f64, seed: u64) -> (Vec<Vec<f64>>, Vec<f64>) {
+    s1_measurements_with_step(steps, dt, amplitude, noise_std, seed, (usize::MAX, 0.0))
+}
+
+/// [`s1_measurements`] with the load stepping by `step.1` at sample `step.0` (a real
+/// step: both masses feel it).
+pub fn s1_measurements_with_step(
+    steps: usize,
+    dt: f64,
+    amplitude: f64,
+    noise_std: f64,
+    seed: u64,
+    step: (usize, f64),
+) -> (Vec<Vec<f64>>, Vec<f64>) {
     let chain = Oscillator2Dof::stiffness_nonlinear();
     let plant = Oscillator2DofLoad::new(chain);
     let load = |t: f64| {
+        let stepped = if t >= step.0 as f64 * dt - 1e-12 { step.1 } else { 0.0 };
         amplitude * 8.0 * math::sin(2.0 * std::f64::consts::PI * 1.0 * t)
             + amplitude * 4.0 * math::cos(2.0 * std::f64::consts::PI * 3.0 * t)
+            + stepped
     };
     let mut rng = rng(seed);
     let sub = 50;

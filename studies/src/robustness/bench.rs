@@ -34,6 +34,8 @@ pub struct Bench {
     pub integers: Vec<(&'static str, i32)>,
     /// The recovery time this FMU is held to (s): 2 s, 0.5 s for S2 and S3.
     pub bound: f64,
+    /// The user's start values over the study's (`--set`, `--values`).
+    pub start_values: StartValues,
 }
 
 /// What the FMU showed at each sample of a run (read after the inputs of the sample).
@@ -93,7 +95,7 @@ impl Bench {
             end,
             &self.parameters,
             &self.integers,
-            &StartValues::none(),
+            &self.start_values,
             (&input_vrs, &row(0)),
         )?;
         let n = self.targets.len();

@@ -4,6 +4,8 @@
 
 use estimator::models::WheelRailRoll;
 
+use start_values::StartValues;
+
 use super::bench::Bench;
 use crate::s3::study::{in_model_order, user_vehicle, ForceModel, Tuning as S3Tuning};
 use truth::s3::cases::ACCELERATIONS;
@@ -33,6 +35,7 @@ pub fn s1(duration: f64, seed: u64) -> Bench {
         parameters: unsmoothed(crate::s1::fmu_run::parameters(&tuning, &case, &settings)),
         integers: tuning.fmu_integers(),
         bound: 2.0,
+        start_values: StartValues::none(),
     }
 }
 
@@ -58,6 +61,7 @@ pub fn s2(duration: f64, seed: u64) -> Bench {
         parameters: unsmoothed(parameters),
         integers: tuning.fmu_integers(),
         bound: 0.5,
+        start_values: StartValues::none(),
     }
 }
 
@@ -84,6 +88,7 @@ pub fn s3(duration: f64, seed: u64) -> Bench {
         parameters: unsmoothed(crate::s3::fmu_run::parameters(&vehicle, &tuning)),
         integers: Vec::new(),
         bound: 0.5,
+        start_values: StartValues::none(),
     }
 }
 
@@ -119,6 +124,7 @@ pub fn s4(duration: f64, seed: u64) -> Bench {
         parameters: crate::s4::fmu_run::parameters(&recording, &tuning),
         integers: Vec::new(),
         bound: 2.0,
+        start_values: StartValues::none(),
     }
 }
 
@@ -144,5 +150,6 @@ pub fn s5(duration: f64, seed: u64) -> Bench {
         parameters: crate::s5::fmu_run::parameters(&settings, &tuning),
         integers: crate::s5::fmu_run::integers(&tuning),
         bound: 2.0,
+        start_values: StartValues::none(),
     }
 }

@@ -23,6 +23,7 @@ use bench::{clean_scale, judge, Bench, Verdict};
 use cosim::fmu_driver::ImportedFmu;
 use episode::{draw, Episode, FaultKind};
 use shard::Shard;
+use start_values::StartValues;
 
 /// Command-line arguments of `kalfmu robustness`.
 #[derive(Debug, clap::Args)]
@@ -52,6 +53,12 @@ pub struct Args {
     /// unhealthy where its estimate leaves its σ?
     #[arg(long)]
     pub wiring: bool,
+    /// Start values over each FMU's own (its study's set-up), by the FMU's
+    /// parameter names: how robust a user's tuning is (`kalfmu-tune` writes
+    /// them). Every FMU run takes them; a name an FMU does not have is an error,
+    /// so take one study at a time with `--studies`.
+    #[command(flatten)]
+    pub start_values: start_values::Options,
 }
 
 /// Episodes per batch: a batch loads the FMU once.
@@ -85,12 +92,21 @@ fn benches(studies: &[String]) -> anyhow::Result<Vec<Bench>> {
 
 /// Runs the subcommand.
 pub fn run_command(args: &Args) -> anyhow::Result<()> {
-    let benches = benches(&args.studies)?;
+    let start_values = StartValues::from_options(&args.start_values).map_err(anyhow::Error::msg)?;
+    let mut benches = benches(&args.studies)?;
+    for bench in &mut benches {
+        bench.start_values = start_values.clone();
+    }
+    let set_up = if start_values.is_empty() {
+        "the study's default case".to_string()
+    } else {
+        format!("the study's default case, {}", start_values.summary())
+    };
     if args.wiring {
         let start = WARM_UP + 0.5;
         println!(
-            "robustness --wiring: each wiring mistake on each input from {start} s into the study's default case to \
-             the end of the run; the packaged FMUs of {} through the fmi importer",
+            "robustness --wiring: each wiring mistake on each input from {start} s into {set_up} to the end \
+             of the run; the packaged FMUs of {} through the fmi importer",
             args.fmu_dir.display()
         );
         for bench in &benches {
@@ -100,8 +116,8 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "robustness: {} fault episodes per FMU (seed {}), each 1 to {LONGEST} samples from {WARM_UP}–{} s into the \
-         study's default case, on one input, some or all; the packaged FMUs of {} through the fmi importer",
+        "robustness: {} fault episodes per FMU (seed {}), each 1 to {LONGEST} samples from {WARM_UP}–{} s into \
+         {set_up}, on one input, some or all; the packaged FMUs of {} through the fmi importer",
         args.episodes,
         args.seed,
         2.0 * WARM_UP,
