@@ -21,8 +21,9 @@ pub struct Channel {
     pub(super) since_reacquisition: u32,
     /// The data found the channel, not the state, wrong: it failed again
     /// right after its re-acquisition, or a jump it alone explained was
-    /// undone (`rival.rs`). Until it passes the gate again its failures are
-    /// its own: it triggers no re-acquisition and explains no jump.
+    /// undone while the filter was consistent (`rival.rs`). Until it passes
+    /// the gate again its failures are its own: it triggers no
+    /// re-acquisition and explains no jump.
     pub suspended: bool,
     /// Samples since a jump that this channel's row explained was confirmed:
     /// by another row at its sample, or by its review at the next

@@ -59,7 +59,10 @@
 //! challenger must, and its win is [`Revision::JumpUndone`]: the sensor was
 //! wrong, so its channel is suspended (its failures explain no further jump
 //! until it passes the gate again; without that the sensor, still off, was
-//! followed again at the next sample). It is a precaution, kept after
+//! followed again at the next sample), provided the rival's window is
+//! consistent. An inconsistent filter may be what is wrong: the S5 EKF, its
+//! start-up jumps on `Nz` undone and `Nz` suspended, lost `Nz` for 0.6 s and
+//! ended a flight with `Cz_δ` 5.7 % off, against 0.4 % with `Nz` kept. It is a precaution, kept after
 //! most confirmed jumps, so a re-acquisition's rival or a challenger
 //! replaces it, and the restart goes on learning while it lives
 //! (`restart.rs`).
@@ -389,9 +392,12 @@ impl Supervisor {
                 self.rival.active = false;
                 self.window.replace_latest(&self.rival.entries);
                 // Its sensor, not the state, had changed: no change is under
-                // way, and its failures explain no jump until it passes again.
+                // way. With the rival's window consistent, that verdict holds:
+                // its failures explain no jump, nor ask for a re-acquisition,
+                // until it passes again. An inconsistent filter may itself be
+                // what is wrong, so the sensor keeps both rights.
                 let channel = &mut self.channels[trigger];
-                channel.suspended = true;
+                channel.suspended = self.window.consistent();
                 channel.since_change = u32::MAX;
                 self.review.active = false;
                 self.jumps.retracted = self.jumps.retracted.saturating_add(1);
