@@ -11,7 +11,7 @@ use estimator::{build_filter, FilterKind, Noise, StateEstimator, Supervisor, Sup
 
 /// The layout as documented in `supervisor/memory.rs`, by field name.
 const HEADER: [&str; 5] = ["tag", "version", "channels", "channel_words", "window"];
-const CHANNEL: [&str; 29] = [
+const CHANNEL: [&str; 30] = [
     "bad_run",
     "rejected_run",
     "faulty",
@@ -19,6 +19,7 @@ const CHANNEL: [&str; 29] = [
     "stuck",
     "since_reacquisition",
     "suspended",
+    "refuted",
     "since_change",
     "last_value",
     "repeats",
@@ -132,7 +133,7 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 7);
+    assert_eq!(words[header_word("version")], 8);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
@@ -203,7 +204,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 7"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 8"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);

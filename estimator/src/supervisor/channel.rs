@@ -20,11 +20,21 @@ pub struct Channel {
     /// Samples since this channel last triggered a re-acquisition (`u32::MAX`: never).
     pub(super) since_reacquisition: u32,
     /// The data found the channel, not the state, wrong: it failed again
-    /// right after its re-acquisition, or a jump it alone explained was
-    /// undone while the filter was consistent (`rival.rs`). Until it passes
-    /// the gate again its failures are its own: it triggers no
-    /// re-acquisition and explains no jump.
+    /// right after its re-acquisition, that re-acquisition was undone, or a
+    /// jump it alone explained was undone while the filter was consistent
+    /// (`rival.rs`). Until it passes the gate again it triggers no
+    /// re-acquisition.
     pub suspended: bool,
+    /// A jump it alone explained was undone while the filter was consistent
+    /// (`rival.rs`): the sensor, not the state, changed. Until it passes the
+    /// gate again its failures explain no jump either. A channel suspended
+    /// for its re-acquisition still may: once its fault has ended, the
+    /// belief has drifted while it was left out, and a jump it explains
+    /// (reviewed, with its own rival) is how it comes back at once. Barred
+    /// from that, S1's `z2_ddot` after a 12-sample burst was rejected for
+    /// 16 clean samples, the load 5 N off, where the same samples missing
+    /// cost nothing after their end.
+    pub refuted: bool,
     /// Samples since a jump that this channel's row explained was confirmed:
     /// by another row at its sample, or by its review at the next
     /// (`jump.rs`; `u32::MAX`: never). While it is below
@@ -105,6 +115,9 @@ impl Channel {
             self.suspended = true;
         } else if row == RowOutcome::Used {
             self.suspended = false;
+        }
+        if row == RowOutcome::Used {
+            self.refuted = false;
         }
         self.since_reacquisition = if triggered { 0 } else { self.since_reacquisition.saturating_add(1) };
         self.bad_run = if bad { self.bad_run.saturating_add(1) } else { 0 };

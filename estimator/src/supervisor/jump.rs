@@ -15,10 +15,9 @@
 //!   mass the load does not act on) is a fault, and rejected. Only the
 //!   unknown inputs jump: a drifting sensor that the motion states' small
 //!   process noise could follow, one large jump after another, must not be.
-//!   Nor does a suspended channel's row (one the data found wrong: a
-//!   re-acquisition it triggered failed again, or a jump it alone explained
-//!   was undone, `rival.rs`): until it passes the gate again its failures
-//!   are its own.
+//!   Nor does the row of a refuted channel (a jump it alone explained was
+//!   undone, `rival.rs`): until it passes the gate again its failures are
+//!   its own.
 //! * **Not contradicted by the other rows.** The row is then predicted from
 //!   the update with the other rows under `P + c·Q` (leave one out): where
 //!   they see the same directions of the state, they pin what it can be, and
@@ -113,7 +112,7 @@ impl Supervisor {
                 if !failing(r, work.ratios[r]) {
                     continue;
                 }
-                if self.channels[r].suspended {
+                if self.channels[r].refuted {
                     work.unexplained[r] = true;
                     continue;
                 }

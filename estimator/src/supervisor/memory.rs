@@ -8,7 +8,7 @@
 //! ```text
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
-//!                 suspended, since_change, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
+//!                 suspended, refuted, since_change, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
 //!                 bias_evidence, bias_weight, scale_evidence, scale_weight, scale_norm,
 //!                 offset_sum, offset_weight, fit_evidence, fit_e, fit_g, fit_norm, fit_offset, fit_weight,
 //!                 prediction_mean, predictions
@@ -48,7 +48,7 @@ use crate::filter::{FilterKind, Snapshot};
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 7;
+const VERSION: u64 = 8;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -229,6 +229,7 @@ record!(Channel {
     stuck,
     since_reacquisition,
     suspended,
+    refuted,
     since_change,
     last_value,
     repeats,
@@ -593,6 +594,7 @@ mod tests {
             stuck: 5,
             since_reacquisition: 6,
             suspended: true,
+            refuted: true,
             since_change: 7,
             last_value: 1.5f64.to_bits(),
             repeats: 9,
@@ -619,7 +621,7 @@ mod tests {
         let mut words = Vec::new();
         channel.save(&mut words);
         assert_eq!(words.len(), Channel::WORDS);
-        assert_eq!(words.len(), 29);
+        assert_eq!(words.len(), 30);
         assert_eq!(Channel::load(&words, "channel 0").unwrap(), channel);
     }
 

@@ -19,14 +19,22 @@
 //! burst still going) costs both about the same, a row one belief explains
 //! and the other does not moves the evidence by up to `c/2` nats. The first
 //! belief whose lead reaches `c` nats (two rows' worth, odds of about 10¹⁰)
-//! is kept; at the consistency window's end the one ahead is. The rival
-//! never re-acquires itself and there is one at a time: the belief kept
-//! aside is the one from before the episode.
+//! is kept; at the consistency window's end the one ahead is. A belief that
+//! has left its plausible range (`restart.rs`) loses outright: the rival
+//! is the belief from before the episode, a better place to go on from than
+//! where the states have been on average (S1, a 12-sample burst on z₂ whose
+//! re-acquisition took in a load of −28 kN: the restart from the climate
+//! the implausible load called for left the load 2–3 times its clean error
+//! off for seconds, where the rival, a sample later, had it back at once).
+//! The rival never re-acquires itself and there is one at a time: the
+//! belief kept aside is the one from before the episode.
 //!
 //! * **The rival wins** (the garbage was in): the filter takes the rival's
 //!   belief at this sample, the rows are those of its update, the channel
-//!   that triggered the re-acquisition is suspended (it was the sensor), and
-//!   the consistency window's samples since the fork become the rival's.
+//!   that triggered the re-acquisition is suspended (it was the sensor: it
+//!   triggers no re-acquisition until it passes the gate, though a jump it
+//!   explains is still taken and reviewed), and the consistency window's
+//!   samples since the fork become the rival's.
 //! * **The re-acquired belief wins** (the state had moved): the rival is
 //!   dropped, nothing else changes.
 //!
@@ -57,13 +65,14 @@
 //! belief is kept only once it leads by `c` nats with no row of its own
 //! rejected, or at the window's end; the rival must lead clearly, as a
 //! challenger must, and its win is [`Revision::JumpUndone`]: the sensor was
-//! wrong, so its channel is suspended (its failures explain no further jump
-//! until it passes the gate again; without that the sensor, still off, was
-//! followed again at the next sample), provided the rival's window is
-//! consistent. An inconsistent filter may be what is wrong: the S5 EKF, its
-//! start-up jumps on `Nz` undone and `Nz` suspended, lost `Nz` for 0.6 s and
-//! ended a flight with `Cz_δ` 5.7 % off, against 0.4 % with `Nz` kept. It is a precaution, kept after
-//! most confirmed jumps, so a re-acquisition's rival or a challenger
+//! wrong, so its channel is suspended and refuted (its failures ask for no
+//! re-acquisition and explain no further jump until it passes the gate
+//! again; without that the sensor, still off, was followed again at the
+//! next sample), provided the rival's window is consistent. An inconsistent
+//! filter may be what is wrong: the S5 EKF, its start-up jumps on `Nz`
+//! undone and `Nz` suspended, lost `Nz` for 0.6 s and ended a flight with
+//! `Cz_δ` 5.7 % off, against 0.4 % with `Nz` kept. It is a precaution, kept
+//! after most confirmed jumps, so a re-acquisition's rival or a challenger
 //! replaces it, and the restart goes on learning while it lives
 //! (`restart.rs`).
 //!
@@ -301,7 +310,7 @@ impl Supervisor {
         // A challenger, and a confirmed jump's fault hypothesis, must lead
         // clearly: the incumbent is kept on a near tie.
         let clearly = self.rival.challenger || self.rival.jump;
-        let ahead = evidence >= threshold || (horizon && evidence > 0.0 && !clearly);
+        let ahead = self.work.main_lost || evidence >= threshold || (horizon && evidence > 0.0 && !clearly);
         self.pending.revision = if ahead && self.rival.challenger {
             Revision::Restarted
         } else if ahead && self.rival.jump {
@@ -398,6 +407,7 @@ impl Supervisor {
                 // what is wrong, so the sensor keeps both rights.
                 let channel = &mut self.channels[trigger];
                 channel.suspended = self.window.consistent();
+                channel.refuted = channel.suspended;
                 channel.since_change = u32::MAX;
                 self.review.active = false;
                 self.jumps.retracted = self.jumps.retracted.saturating_add(1);
@@ -408,6 +418,7 @@ impl Supervisor {
                 self.window.replace_latest(&self.rival.entries);
                 for channel in &mut self.channels {
                     channel.suspended = false;
+                    channel.refuted = false;
                 }
                 self.review.active = false;
                 let reacquisition = &mut self.reacquisition;
