@@ -112,11 +112,6 @@ pub(super) struct Workspace {
     /// The robust log-likelihoods of this sample's first pass: the rival's and the filter's own.
     pub rival_score: f64,
     pub main_score: f64,
-    /// The filter's belief before this sample's update is outside its
-    /// plausible range while a re-acquisition's or a jump's rival lives: the
-    /// rival wins outright (`rival.rs`) rather than a restart from the
-    /// climate (`restart.rs`).
-    pub main_lost: bool,
     /// The mean the update ends with (what a healthy sample teaches `restart.rs`).
     pub posterior: Vec<f64>,
     /// Its variance per state.
@@ -150,7 +145,6 @@ impl Workspace {
             rival_entry: WindowEntry::default(),
             rival_score: 0.0,
             main_score: 0.0,
-            main_lost: false,
             posterior: Vec::new(),
             posterior_variance: Vec::new(),
         }
@@ -228,8 +222,7 @@ impl Supervisor {
         filter.snapshot_into(&mut self.work.before);
         self.reserve_beliefs();
         self.review(filter)?;
-        self.work.main_lost = self.rival.active && !self.rival.challenger && self.outside(filter).is_some();
-        if self.restart_due(filter) && !self.work.main_lost {
+        if self.restart_due(filter) {
             self.restart(filter)?;
         }
         self.probe_inconsistent(filter)?;

@@ -19,15 +19,9 @@
 //! burst still going) costs both about the same, a row one belief explains
 //! and the other does not moves the evidence by up to `c/2` nats. The first
 //! belief whose lead reaches `c` nats (two rows' worth, odds of about 10¹⁰)
-//! is kept; at the consistency window's end the one ahead is. A belief that
-//! has left its plausible range (`restart.rs`) loses outright: the rival
-//! is the belief from before the episode, a better place to go on from than
-//! where the states have been on average (S1, a 12-sample burst on z₂ whose
-//! re-acquisition took in a load of −28 kN: the restart from the climate
-//! the implausible load called for left the load 2–3 times its clean error
-//! off for seconds, where the rival, a sample later, had it back at once).
-//! The rival never re-acquires itself and there is one at a time: the
-//! belief kept aside is the one from before the episode.
+//! is kept; at the consistency window's end the one ahead is. The rival
+//! never re-acquires itself and there is one at a time: the belief kept
+//! aside is the one from before the episode.
 //!
 //! * **The rival wins** (the garbage was in): the filter takes the rival's
 //!   belief at this sample, the rows are those of its update, the channel
@@ -310,7 +304,7 @@ impl Supervisor {
         // A challenger, and a confirmed jump's fault hypothesis, must lead
         // clearly: the incumbent is kept on a near tie.
         let clearly = self.rival.challenger || self.rival.jump;
-        let ahead = self.work.main_lost || evidence >= threshold || (horizon && evidence > 0.0 && !clearly);
+        let ahead = evidence >= threshold || (horizon && evidence > 0.0 && !clearly);
         self.pending.revision = if ahead && self.rival.challenger {
             Revision::Restarted
         } else if ahead && self.rival.jump {
