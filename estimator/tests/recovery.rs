@@ -25,14 +25,20 @@ struct Run {
     restarts: u64,
 }
 
+/// Adds to `channel`, from `BURST_AT` for `length` samples, `size` times its
+/// RMS, alternating in sign.
+fn alternating_burst(zs: &mut [Vec<f64>], channel: usize, length: usize, size: f64) {
+    let rms = (zs.iter().map(|z| z[channel] * z[channel]).sum::<f64>() / zs.len() as f64).sqrt();
+    for (j, z) in zs[BURST_AT..BURST_AT + length].iter_mut().enumerate() {
+        z[channel] += if j % 2 == 0 { size * rms } else { -size * rms };
+    }
+}
+
 /// The load estimate of `kind` over S1 data with the burst on `channel` (none: clean).
 fn loads(kind: FilterKind, settings: SupervisorSettings, channel: Option<usize>) -> (Vec<f64>, Vec<f64>, bool, u64) {
     let run = run(kind, settings, |zs| {
         if let Some(c) = channel {
-            let rms = (zs.iter().map(|z| z[c] * z[c]).sum::<f64>() / zs.len() as f64).sqrt();
-            for (j, z) in zs[BURST_AT..BURST_AT + BURST].iter_mut().enumerate() {
-                z[c] += if j % 2 == 0 { 100.0 * rms } else { -100.0 * rms };
-            }
+            alternating_burst(zs, c, BURST, 100.0);
         }
     });
     (run.estimate, run.truth, run.healthy, run.undone)
@@ -216,25 +222,19 @@ fn a_fault_held_for_many_samples_is_undone_by_the_other_channel_and_the_load_ret
 #[test]
 fn a_burst_that_a_reacquisition_took_in_costs_what_the_same_samples_missing_cost() {
     const LENGTH: usize = 12;
-    let burst = |zs: &mut [Vec<f64>]| {
-        let rms = (zs.iter().map(|z| z[1] * z[1]).sum::<f64>() / zs.len() as f64).sqrt();
-        for (j, z) in zs[BURST_AT..BURST_AT + LENGTH].iter_mut().enumerate() {
-            z[1] += if j % 2 == 0 { 2614.0 * rms } else { -2614.0 * rms };
-        }
-    };
+    let burst = |zs: &mut [Vec<f64>]| alternating_burst(zs, 1, LENGTH, 2614.0);
     let missing = |zs: &mut [Vec<f64>]| {
         for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
             z[1] = f64::NAN;
         }
     };
-    let settings = SupervisorSettings::default;
     for kind in FilterKind::ALL {
-        let clean = run(kind, settings(), |_| {});
-        let missing = run(kind, settings(), missing);
+        let clean = run(kind, SupervisorSettings::default(), |_| {});
+        let missing = run(kind, SupervisorSettings::default(), missing);
         let from = BURST_AT + LENGTH + 4;
         let to = from + (2.0 / DT) as usize;
         let scale = rmse(&clean.estimate[from..to], &clean.truth[from..to]);
-        let burst = run(kind, settings(), burst);
+        let burst = run(kind, SupervisorSettings::default(), burst);
         assert!(burst.undone >= 1 && burst.restarts == 0, "{kind}: undone, not restarted");
         let apart = (from..to).map(|k| (burst.estimate[k] - missing.estimate[k]).abs()).fold(0.0, f64::max);
         assert!(apart <= 0.5 * scale, "{kind}: {apart} N apart from the run without those samples");
