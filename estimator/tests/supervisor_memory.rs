@@ -11,7 +11,7 @@ use estimator::{build_filter, FilterKind, Noise, StateEstimator, Supervisor, Sup
 
 /// The layout as documented in `supervisor/memory.rs`, by field name.
 const HEADER: [&str; 5] = ["tag", "version", "channels", "channel_words", "window"];
-const CHANNEL: [&str; 30] = [
+const CHANNEL: [&str; 31] = [
     "bad_run",
     "rejected_run",
     "faulty",
@@ -20,6 +20,7 @@ const CHANNEL: [&str; 30] = [
     "since_reacquisition",
     "suspended",
     "refuted",
+    "probation_run",
     "since_change",
     "last_value",
     "repeats",
@@ -47,8 +48,20 @@ const REACQUISITION: [&str; 7] =
     ["lost_run", "count", "since_last", "inflation", "undone", "restarts", "since_challenge"];
 const CURSOR: [&str; 2] = ["next", "filled"];
 const WINDOW_ENTRY: [&str; 2] = ["clipped_ratios", "rows"];
-const RIVAL_HEADER: [&str; 11] =
-    ["active", "challenger", "jump", "clean_run", "trigger", "evidence", "entries", "kind", "time", "inputs", "states"];
+const RIVAL_HEADER: [&str; 12] = [
+    "active",
+    "challenger",
+    "jump",
+    "release",
+    "clean_run",
+    "trigger",
+    "evidence",
+    "entries",
+    "kind",
+    "time",
+    "inputs",
+    "states",
+];
 
 fn position(fields: &[&str], name: &str) -> usize {
     fields.iter().position(|f| *f == name).unwrap_or_else(|| panic!("no field {name}"))
@@ -204,7 +217,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 8"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 9"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);

@@ -26,8 +26,18 @@ pub struct Channel {
     /// re-acquisition.
     pub suspended: bool,
     /// A jump it alone explained was undone while the filter was consistent
-    /// (`rival.rs`): the sensor, not the state, changed. Until it passes the
-    /// gate again its failures explain no jump either. A channel suspended
+    /// (`rival.rs`): the sensor, not the state, changed. It is on probation:
+    /// left out of the updates (status inconsistent) while its row, scored
+    /// against the belief without it, has not passed the gate for
+    /// [`SupervisorSettings::reacquire_after`] samples in a row (as many
+    /// as make its failures persistent), for at most a consistency window;
+    /// then it is used again, with the belief without
+    /// it as the rival, so that a sensor still off (a flipped accelerometer
+    /// near a zero crossing agrees for a while) is refuted again and what it
+    /// dragged is undone. Used only where it passed the gate, S1's flipped
+    /// `z2_ddot` was taken in at every crossing and the load never came
+    /// back; on probation it does within 0.1 s of the fault's end. Its
+    /// failures explain no jump either. A channel suspended
     /// for its re-acquisition still may: once its fault has ended, the
     /// belief has drifted while it was left out, and a jump it explains
     /// (reviewed, with its own rival) is how it comes back at once. Barred
@@ -49,6 +59,8 @@ pub struct Channel {
     pub(super) step_multiple: i64,
     /// How many samples in a row they sat there.
     pub(super) step_run: u32,
+    /// Consecutive samples a refuted channel's probe passed the gate.
+    pub(super) probation_run: u32,
     /// Its wiring is inconsistent with the other channels (`wiring.rs`)
     /// until its scores are back: left out of the updates, or named with
     /// the filter inconsistent ([`SupervisorSettings::wiring_leaves_out`]).
@@ -80,6 +92,13 @@ impl Channel {
     /// A channel before its first sample.
     pub(super) fn new() -> Self {
         Self { since_reacquisition: u32::MAX, since_change: u32::MAX, ..Self::default() }
+    }
+
+    /// Refuted, its probe has not yet passed the gate `probation` samples in
+    /// a row, and it has been left out for less than `longest` samples: left
+    /// out of the updates.
+    pub(super) fn on_probation(&self, probation: u32, longest: usize) -> bool {
+        self.refuted && self.probation_run < probation && (self.bad_run as usize) < longest
     }
 
     /// `value` repeats the last one bit for bit often enough to be stuck.

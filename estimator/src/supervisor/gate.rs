@@ -234,6 +234,9 @@ impl Supervisor {
         if !self.pending.restarted {
             self.fork_challenger(filter)?;
         }
+        if let Some(channel) = self.pending.released {
+            self.fork_release_rival(filter, channel)?;
+        }
         let mut first_pass = true;
         // No row has been left out by the gate's own tests yet: a re-acquisition
         // may still be decided, or a jump taken.
@@ -339,12 +342,25 @@ impl Supervisor {
         self.work.z_gated.copy_from_slice(z);
         self.work.z_probe.fill(f64::NAN);
         let stuck_after = self.settings.stuck_after;
+        let (probation, window) = (self.settings.reacquire_after, self.settings.window);
+        // A refuted channel whose probation has passed is used again, with
+        // the belief without it as its rival (`rival.rs`), one at a time.
+        self.pending.released = None;
+        if !self.rival.active {
+            self.pending.released = self.channels.iter().position(|c| c.refuted && !c.on_probation(probation, window));
+        }
         for (c, (row, &v)) in self.pending.rows.iter_mut().zip(z).enumerate() {
             *row = if !v.is_finite() {
                 RowOutcome::Missing
             } else if self.channels[c].is_stuck_at(v, stuck_after) {
                 self.work.z_gated[c] = f64::NAN;
                 RowOutcome::Stuck
+            } else if self.channels[c].refuted && self.pending.released != Some(c) {
+                // On probation: the other rows contradicted it; scored against
+                // the belief without it, not used (`channel.rs`).
+                self.work.z_gated[c] = f64::NAN;
+                self.work.z_probe[c] = v;
+                RowOutcome::Inconsistent
             } else if self.channels[c].inconsistent && self.settings.wiring_leaves_out {
                 self.work.z_gated[c] = f64::NAN;
                 self.work.z_probe[c] = v;

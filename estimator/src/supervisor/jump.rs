@@ -16,8 +16,8 @@
 //!   unknown inputs jump: a drifting sensor that the motion states' small
 //!   process noise could follow, one large jump after another, must not be.
 //!   Nor does the row of a refuted channel (a jump it alone explained was
-//!   undone, `rival.rs`): until it passes the gate again its failures are
-//!   its own.
+//!   undone, `rival.rs`) at the sample its probation ends: until it passes
+//!   the gate again its failures are its own.
 //! * **Not contradicted by the other rows.** The row is then predicted from
 //!   the update with the other rows under `P + c·Q` (leave one out): where
 //!   they see the same directions of the state, they pin what it can be, and

@@ -8,7 +8,7 @@
 //! ```text
 //! Header          tag, version, channels (m), channel_words, window (w)
 //! Channel   × m   bad_run, rejected_run, faulty, rejected, stuck, since_reacquisition,
-//!                 suspended, refuted, since_change, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
+//!                 suspended, refuted, probation_run, since_change, last_value, repeats, step_multiple, step_run, inconsistent, wiring_run,
 //!                 bias_evidence, bias_weight, scale_evidence, scale_weight, scale_norm,
 //!                 offset_sum, offset_weight, fit_evidence, fit_e, fit_g, fit_norm, fit_offset, fit_weight,
 //!                 prediction_mean, predictions
@@ -20,7 +20,7 @@
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
-//! RivalHeader     active, challenger, jump, clean_run, trigger, evidence, entries, kind, time, inputs, states
+//! RivalHeader     active, challenger, jump, release, clean_run, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! ClimateHeader   learnt, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
@@ -48,7 +48,7 @@ use crate::filter::{FilterKind, Snapshot};
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 8;
+const VERSION: u64 = 9;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -194,6 +194,8 @@ struct RivalHeader {
     challenger: bool,
     /// It is a confirmed single-row jump's fault hypothesis.
     jump: bool,
+    /// It is the belief without a channel released from probation.
+    release: bool,
     /// Samples in a row the filter's own update rejected no row (a jump's rival).
     clean_run: u32,
     /// The channel that triggered the re-acquisition.
@@ -217,7 +219,20 @@ struct ClimateHeader {
 
 record!(ClimateHeader { learnt, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
-record!(RivalHeader { active, challenger, jump, clean_run, trigger, evidence, entries, kind, time, inputs, states });
+record!(RivalHeader {
+    active,
+    challenger,
+    jump,
+    release,
+    clean_run,
+    trigger,
+    evidence,
+    entries,
+    kind,
+    time,
+    inputs,
+    states
+});
 record!(ReviewRow { explained });
 record!(Adaptation { log_scale, mean_ratio });
 record!(Jumps { taken, retracted });
@@ -230,6 +245,7 @@ record!(Channel {
     since_reacquisition,
     suspended,
     refuted,
+    probation_run,
     since_change,
     last_value,
     repeats,
@@ -329,6 +345,7 @@ impl Supervisor {
             active,
             challenger: active && rival.challenger,
             jump: active && rival.jump,
+            release: active && rival.release,
             clean_run: if active { rival.clean_run } else { 0 },
             trigger: if active { rival.trigger } else { 0 },
             evidence: if active { rival.evidence } else { 0.0 },
@@ -553,6 +570,7 @@ impl Supervisor {
         self.rival.active = rival.active;
         self.rival.challenger = rival.challenger;
         self.rival.jump = rival.jump;
+        self.rival.release = rival.release;
         self.rival.clean_run = rival.clean_run;
         (self.rival.trigger, self.rival.evidence) = (rival.trigger, rival.evidence);
         self.rival.entries.clear();
@@ -595,6 +613,7 @@ mod tests {
             since_reacquisition: 6,
             suspended: true,
             refuted: true,
+            probation_run: 3,
             since_change: 7,
             last_value: 1.5f64.to_bits(),
             repeats: 9,
@@ -621,7 +640,7 @@ mod tests {
         let mut words = Vec::new();
         channel.save(&mut words);
         assert_eq!(words.len(), Channel::WORDS);
-        assert_eq!(words.len(), 30);
+        assert_eq!(words.len(), 31);
         assert_eq!(Channel::load(&words, "channel 0").unwrap(), channel);
     }
 

@@ -17,6 +17,9 @@
 //!   is kept beside a re-acquisition as its rival, and the next samples'
 //!   data decide which belief stays: a burst of gross errors taken in is
 //!   undone.
+//! * **Probation** (`channel.rs`): a channel whose jump the data undid is
+//!   left out until its row agrees with the belief without it for a while,
+//!   then used again with that belief as its rival.
 //! * **Restart** (`restart.rs`): a filter that has used no row for a whole
 //!   window, or whose belief has left its plausible range, starts again from
 //!   where its states have been while it was healthy; an inconsistent one is
@@ -290,6 +293,21 @@ impl Supervisor {
         &self.pending
     }
 
+    /// Counts, for each refuted channel on probation, the samples in a row
+    /// its probe (its row against the belief without it) passed the gate
+    /// (`channel.rs`).
+    fn commit_probation(&mut self) {
+        let row = self.thresholds.row;
+        for (c, channel) in self.channels.iter_mut().enumerate() {
+            if !channel.refuted || self.pending.released == Some(c) {
+                channel.probation_run = 0;
+                continue;
+            }
+            let ratio = self.work.residuals[c].powi(2) / self.work.first_variances[c];
+            channel.probation_run = if ratio <= row { channel.probation_run.saturating_add(1) } else { 0 };
+        }
+    }
+
     /// Counts the pending outcome: channel runs and faults, the
     /// re-acquisition run, the consistency window. Calls `changed` for every
     /// channel whose fault flag changes.
@@ -308,6 +326,7 @@ impl Supervisor {
             channel.since_change =
                 if reviewed || confirmed_at_once { 0 } else { channel.since_change.saturating_add(1) };
         }
+        self.commit_probation();
         self.commit_wiring();
         self.reacquisition.count(&self.pending, self.settings.max_inflation);
         self.commit_rival();

@@ -104,6 +104,9 @@ pub struct Outcome {
     /// The rival forked at this sample is the fault hypothesis of a jump that
     /// one row alone explained, which its review has just confirmed (`rival.rs`).
     pub jump_forked: Option<usize>,
+    /// A refuted channel used again at this sample, its probation passed
+    /// (`channel.rs`); the belief without it is forked as the rival.
+    pub released: Option<usize>,
     /// What became of the rival of an earlier re-acquisition or challenge.
     pub revision: Revision,
     /// The filter restarted at this sample (`restart.rs`) before its update.
@@ -149,6 +152,7 @@ impl Outcome {
             forked: false,
             challenged: false,
             jump_forked: None,
+            released: None,
             revision: Revision::None,
             restarted: false,
             watch: vec![(0, 0); m],

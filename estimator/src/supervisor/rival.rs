@@ -51,18 +51,21 @@
 //! samples on that row passes the review as a step and back, and the jump
 //! drags the states its unknown input drives, so that the other rows fail
 //! the gate afterwards. So a review that confirms such a jump keeps the
-//! belief without that row as the rival. That row is not scored: the jumped
-//! belief follows it by construction and the rival leaves it out while it
-//! fails, so it would favour the jump for as long as the sensor is off (S2,
-//! an axle box read ×9.81 for 14 samples: the jump was kept after 7). The
+//! belief without that row as the rival. That row is neither scored nor
+//! used by the rival: the jumped belief follows it by construction, so it
+//! would favour the jump for as long as the sensor is off (S2, an axle box
+//! read ×9.81 for 14 samples: the jump was kept after 7), and a rival that
+//! took it in where it happened to pass its own gate (S1's flipped
+//! `z2_ddot` near its zero crossings) was dragged as the filter was. The
 //! other rows decide, through the states the jump dragged. The jumped
 //! belief is kept only once it leads by `c` nats with no row of its own
 //! rejected, or at the window's end; the rival must lead clearly, as a
 //! challenger must, and its win is [`Revision::JumpUndone`]: the sensor was
-//! wrong, so its channel is suspended and refuted (its failures ask for no
-//! re-acquisition and explain no further jump until it passes the gate
-//! again; without that the sensor, still off, was followed again at the
-//! next sample), provided the rival's window is consistent. An inconsistent
+//! wrong, so its channel is suspended and refuted: on probation, left out
+//! until its row agrees with the belief without it for a while, then used
+//! again with that belief as its rival, a fault hypothesis of the same kind
+//! (`channel.rs`); without that the sensor, still off, was followed again
+//! at the next sample. All this provided the rival's window is consistent. An inconsistent
 //! filter may be what is wrong: the S5 EKF, its start-up jumps on `Nz`
 //! undone and `Nz` suspended, lost `Nz` for 0.6 s and ended a flight with
 //! `Cz_δ` 5.7 % off, against 0.4 % with `Nz` kept. It is a precaution, kept
@@ -90,6 +93,10 @@ pub(super) struct Rival {
     pub challenger: bool,
     /// It is the fault hypothesis of a confirmed single-row jump.
     pub jump: bool,
+    /// It is, more precisely, the belief without a channel released from
+    /// probation (`channel.rs`): a jump's fault hypothesis that no settled
+    /// change drops early, since the released sensor may still be off.
+    pub release: bool,
     /// Samples in a row, up to the last committed one, in which the filter's
     /// own update rejected no row.
     pub clean_run: u32,
@@ -111,6 +118,7 @@ impl Rival {
             active: false,
             challenger: false,
             jump: false,
+            release: false,
             clean_run: 0,
             trigger: 0,
             evidence: 0.0,
@@ -195,7 +203,8 @@ impl Supervisor {
             filter.restore(&work.before)?;
             return Ok(false);
         }
-        self.update_rival(filter)
+        let disputed = self.rival.disputed();
+        self.update_rival(filter, disputed)
     }
 
     /// Keeps, when the review of a jump that row `trigger` alone explained
@@ -213,9 +222,31 @@ impl Supervisor {
             return Ok(());
         }
         filter.restore(&self.work.hypothesis)?;
-        if self.update_rival(filter)? {
+        if self.update_rival(filter, Some(trigger))? {
             self.pending.forked = true;
             self.pending.jump_forked = Some(trigger);
+        }
+        Ok(())
+    }
+
+    /// Keeps, when a refuted channel is used again (its probation passed),
+    /// the belief without it (from `before`, updated with this sample's other
+    /// rows) as the rival to be: its row may still be off where it happened
+    /// to agree for a while (a flipped accelerometer near a zero crossing),
+    /// and the other rows decide, as for a confirmed jump. Leaves the filter
+    /// at `before`.
+    pub(super) fn fork_release_rival(
+        &mut self,
+        filter: &mut dyn StateEstimator,
+        channel: usize,
+    ) -> Result<(), FilterError> {
+        if !self.settings.revise || self.rival.active || self.pending.forked {
+            return Ok(());
+        }
+        filter.restore(&self.work.before)?;
+        if self.update_rival(filter, Some(channel))? {
+            self.pending.forked = true;
+            self.pending.jump_forked = Some(channel);
         }
         Ok(())
     }
@@ -241,7 +272,7 @@ impl Supervisor {
         if started.is_err() {
             return filter.restore(&self.work.before);
         }
-        if self.update_rival(filter)? {
+        if self.update_rival(filter, None)? {
             self.pending.forked = true;
             self.pending.challenged = true;
         }
@@ -253,21 +284,27 @@ impl Supervisor {
     /// log-likelihood and window entry, then its own gate (a row failing its
     /// χ²(1) test is left out); the result in `work.rival_next`. Leaves the
     /// filter at `before`; `false` when the update fails.
-    fn update_rival(&mut self, filter: &mut dyn StateEstimator) -> Result<bool, FilterError> {
+    fn update_rival(&mut self, filter: &mut dyn StateEstimator, disputed: Option<usize>) -> Result<bool, FilterError> {
         let (clip, row) = (self.thresholds.adaptation_clip, self.thresholds.row);
         let gate_clip = row.min(1e6);
         let work = &mut self.work;
         filter.snapshot_into(&mut work.alternative);
-        if filter.update(&work.z_gated).is_err() {
+        work.z_hypothesis.copy_from_slice(&work.z_gated);
+        if let Some(r) = disputed {
+            work.z_hypothesis[r] = f64::NAN;
+        }
+        if filter.update(&work.z_hypothesis).is_err() {
             filter.restore(&work.before)?;
             return Ok(false);
         }
         let innovation = filter.innovation();
         let mut clipped = 0.0;
-        work.rival_score = score(innovation, clip, gate_clip, self.rival.disputed(), &mut clipped);
+        work.rival_score = score(innovation, clip, gate_clip, None, &mut clipped);
         work.rival_entry = WindowEntry { clipped_ratios: clipped, rows: innovation.rows_used() };
-        work.z_hypothesis.copy_from_slice(&work.z_gated);
         work.rival_rows.copy_from_slice(&self.pending.rows);
+        if let Some(r) = disputed.filter(|&r| work.z_gated[r].is_finite()) {
+            work.rival_rows[r] = RowOutcome::Rejected;
+        }
         let mut left_out = false;
         for &r in innovation.rows() {
             let ratio = innovation.residual()[r].powi(2) / innovation.covariance()[(r, r)];
@@ -352,6 +389,7 @@ impl Supervisor {
     /// a whole window after most jumps.
     fn jump_settled(&self, evidence: f64) -> bool {
         self.rival.jump
+            && !self.rival.release
             && self.pending.rejected_none()
             && evidence <= 0.0
             && self.rival.clean_run.saturating_add(1) >= self.settings.change_memory
@@ -364,9 +402,16 @@ impl Supervisor {
         let challenging = self.rival.active && self.rival.challenger;
         reacquisition.since_challenge = if challenging { 0 } else { reacquisition.since_challenge.saturating_add(1) };
         if self.pending.forked {
+            let release = self.pending.released.filter(|&c| self.pending.jump_forked == Some(c));
+            if release.is_some_and(|c| self.pending.rows[c] != RowOutcome::Used) {
+                // The released row failed the gate at once: it stays refuted,
+                // on probation, and a belief without it has no rival to be.
+                return;
+            }
             self.rival.active = true;
             self.rival.challenger = self.pending.challenged;
             self.rival.jump = self.pending.jump_forked.is_some();
+            self.rival.release = release.is_some();
             self.rival.clean_run = 0;
             self.rival.trigger = self.pending.reacquired.or(self.pending.jump_forked).unwrap_or(0);
             self.rival.evidence = 0.0;
@@ -396,9 +441,8 @@ impl Supervisor {
                 self.window.replace_latest(&self.rival.entries);
                 // Its sensor, not the state, had changed: no change is under
                 // way. With the rival's window consistent, that verdict holds:
-                // its failures explain no jump, nor ask for a re-acquisition,
-                // until it passes again. An inconsistent filter may itself be
-                // what is wrong, so the sensor keeps both rights.
+                // the channel goes on probation (`channel.rs`). An inconsistent
+                // filter may itself be what is wrong, so the sensor stays in.
                 let channel = &mut self.channels[trigger];
                 channel.suspended = self.window.consistent();
                 channel.refuted = channel.suspended;

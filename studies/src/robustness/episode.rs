@@ -134,6 +134,12 @@ impl Episode {
         self.start + self.length
     }
 
+    /// Its samples on its channels made missing instead (NaN): what a perfect
+    /// fault detector would leave the filter, the best a supervisor can do.
+    pub fn as_missing(&self) -> Episode {
+        Episode { kind: FaultKind::Dropout, size: 0.0, alternating: false, ..self.clone() }
+    }
+
     /// Puts the episode into `z` (rows of measurements), `rms` per channel.
     pub fn apply(&self, z: &mut [Vec<f64>], rms: &[f64]) {
         let end = self.end().min(z.len());

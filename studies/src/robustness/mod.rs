@@ -131,7 +131,8 @@ pub fn run_command(args: &Args) -> anyhow::Result<()> {
         "recovery: from an episode's end until every later 0.1 s window's error is within 2× the clean run's (the \
          error of a sample: the RMS over the scored estimates of their errors in their clean RMS errors), over a \
          horizon of twice the FMU's bound; 'n of N' recovered within the bound; after: the largest such error from the \
-         recovery to the horizon; false flags: samples with <input>_fault on an input none of whose last 3 samples \
+         recovery to the horizon; as missing: episodes recovered within the bound when the same samples are \
+         missing instead (NaN, what a perfect fault detector would leave the filter: the data's own limit); false flags: samples with <input>_fault on an input none of whose last 3 samples \
          was corrupted; healthy ≠ error: the share of samples from the episode's start to the horizon where \
          filter_healthy disagrees with the error (mean (e/σ)² of the scored estimates within 9); lost: steps answered \
          with fmi2Warning; failed: runs the FMU ended with fmi2Discard (its filter failed: the last good estimate kept)"
@@ -157,28 +158,34 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
         .collect();
     let batches: Vec<&[Episode]> = episodes.chunks(BATCH).collect();
     let rms = bench.rms();
-    let results = shard::run(&batches, args.shard, |batch| -> anyhow::Result<Vec<(Episode, Verdict)>> {
+    let results = shard::run(&batches, args.shard, |batch| -> anyhow::Result<Vec<(Episode, Verdict, Verdict)>> {
         let fmu = ImportedFmu::load(&path)?;
+        let run = |episode: &Episode| -> anyhow::Result<Verdict> {
+            let mut z = bench.z.clone();
+            episode.apply(&mut z, &rms);
+            let horizon = episode.end() + after;
+            let trace =
+                bench.drive(&fmu, Some(&z), horizon).with_context(|| format!("{}: {episode:?}", bench.study))?;
+            Ok(judge(bench, &clean, &trace, episode, &scale, window, horizon))
+        };
         batch
             .iter()
             .map(|episode| {
-                let mut z = bench.z.clone();
-                episode.apply(&mut z, &rms);
-                let horizon = episode.end() + after;
-                let faulty =
-                    bench.drive(&fmu, Some(&z), horizon).with_context(|| format!("{}: {episode:?}", bench.study))?;
-                Ok((episode.clone(), judge(bench, &clean, &faulty, episode, &scale, window, horizon)))
+                let verdict = run(episode)?;
+                let missing =
+                    if episode.kind == FaultKind::Dropout { verdict.clone() } else { run(&episode.as_missing())? };
+                Ok((episode.clone(), verdict, missing))
             })
             .collect()
     });
-    let mut by_kind: BTreeMap<FaultKind, Vec<Verdict>> = BTreeMap::new();
+    let mut by_kind: BTreeMap<FaultKind, Vec<(Verdict, Verdict)>> = BTreeMap::new();
     let mut unrecovered = Vec::new();
     for (_, batch) in results {
-        for (episode, verdict) in batch? {
+        for (episode, verdict, missing) in batch? {
             if !verdict.recovery.is_some_and(|t| t <= bench.bound) {
-                unrecovered.push((episode.clone(), verdict.clone()));
+                unrecovered.push((episode.clone(), verdict.clone(), missing.clone()));
             }
-            by_kind.entry(episode.kind).or_default().push(verdict);
+            by_kind.entry(episode.kind).or_default().push((verdict, missing));
         }
     }
     let clean_flags = (warm..clean.faulty.len()).filter(|&k| clean.faulty[k].iter().any(|&f| f)).count();
@@ -198,11 +205,13 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
     );
     let _ = writeln!(
         out,
-        "  {:<11} {:>9} {:>14} {:>10} {:>22} {:>11} {:>13} {:>6}",
-        "fault", "episodes", "within bound", "median", "worst", "after", "false flags", "lost"
+        "  {:<11} {:>9} {:>14} {:>11} {:>10} {:>22} {:>11} {:>13} {:>6}",
+        "fault", "episodes", "within bound", "as missing", "median", "worst", "after", "false flags", "lost"
     );
-    let _ = writeln!(out, "  {:>89}", "healthy ≠ error");
-    for (kind, verdicts) in &by_kind {
+    let _ = writeln!(out, "  {:>101}", "healthy ≠ error");
+    for (kind, pairs) in &by_kind {
+        let verdicts: Vec<&Verdict> = pairs.iter().map(|(v, _)| v).collect();
+        let as_missing = pairs.iter().filter(|(_, m)| m.recovery.is_some_and(|t| t <= bench.bound)).count();
         let mut times: Vec<f64> = verdicts.iter().filter_map(|v| v.recovery).collect();
         times.sort_by(f64::total_cmp);
         let recovered = verdicts.iter().filter(|v| v.recovery.is_some_and(|t| t <= bench.bound)).count();
@@ -220,10 +229,11 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
         let lost: usize = verdicts.iter().map(|v| v.warnings).sum();
         let _ = writeln!(
             out,
-            "  {:<11} {:>9} {:>14} {:>10} {:>22} {:>11.2} {:>13} {:>6} {:>8.3}",
+            "  {:<11} {:>9} {:>14} {:>11} {:>10} {:>22} {:>11.2} {:>13} {:>6} {:>8.3}",
             kind.to_string(),
             verdicts.len(),
             format!("{recovered} of {}", verdicts.len()),
+            as_missing,
             median,
             worst,
             after,
@@ -233,11 +243,11 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
         );
     }
     if args.list_unrecovered {
-        for (episode, verdict) in &unrecovered {
+        for (episode, verdict, missing) in &unrecovered {
             let _ = writeln!(
                 out,
                 "    not recovered: {} on {} from {:.3} s for {} samples, size {:.3e}{}: recovery {}, error after {:.2}, \
-                 {} lost steps{}",
+                 {} lost steps{}; as missing: recovery {}",
                 episode.kind,
                 episode.channels.iter().map(|&c| bench.inputs[c]).collect::<Vec<_>>().join("+"),
                 episode.start as f64 * bench.dt,
@@ -247,7 +257,8 @@ fn study(bench: &Bench, args: &Args, index: u64) -> anyhow::Result<String> {
                 verdict.recovery.map_or("never".into(), |t| format!("{t:.3} s")),
                 verdict.error_after,
                 verdict.warnings,
-                if verdict.failed { ", failed" } else { "" }
+                if verdict.failed { ", failed" } else { "" },
+                missing.recovery.map_or("never".into(), |t| format!("{t:.3} s")),
             );
         }
     }
