@@ -146,7 +146,7 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 8);
+    assert_eq!(words[header_word("version")], 9);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
