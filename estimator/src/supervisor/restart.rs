@@ -154,12 +154,19 @@ impl Supervisor {
         }
     }
 
+    /// The filter has been healthy for a whole window (the climate has
+    /// learnt that much): before that, at start-up, the filter may itself be
+    /// what is wrong, and no sensor is judged against it (`rival.rs`).
+    pub(super) fn settled(&self) -> bool {
+        self.climate.learnt >= self.settings.window as u64
+    }
+
     /// Whether the filter restarts at this gate: no row used for a whole
     /// window or a belief outside its plausible range, and a window of healthy
     /// samples learnt.
     pub(super) fn restart_due(&self, filter: &dyn StateEstimator) -> bool {
         let lost = self.reacquisition.lost_run as usize >= self.settings.window || self.outside(filter).is_some();
-        self.settings.revise && lost && self.climate.learnt >= self.settings.window as u64
+        self.settings.revise && lost && self.settled()
     }
 
     /// Restarts `filter` at the belief before the gate's time and input from

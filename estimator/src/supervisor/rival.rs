@@ -203,7 +203,7 @@ impl Supervisor {
             filter.restore(&work.before)?;
             return Ok(false);
         }
-        let disputed = self.rival.disputed();
+        let disputed = self.rival.disputed().filter(|_| self.settled());
         self.update_rival(filter, disputed)
     }
 
@@ -222,7 +222,8 @@ impl Supervisor {
             return Ok(());
         }
         filter.restore(&self.work.hypothesis)?;
-        if self.update_rival(filter, Some(trigger))? {
+        let left_out = self.settled().then_some(trigger);
+        if self.update_rival(filter, left_out)? {
             self.pending.forked = true;
             self.pending.jump_forked = Some(trigger);
         }
@@ -262,7 +263,7 @@ impl Supervisor {
             && !self.window.consistent()
             && !self.channels.iter().any(|c| c.suspended)
             && self.reacquisition.since_challenge as usize >= self.settings.window
-            && self.climate.learnt >= self.settings.window as u64;
+            && self.settled();
         if !due {
             return Ok(());
         }
@@ -443,9 +444,10 @@ impl Supervisor {
                 // way. With the rival's window consistent, that verdict holds:
                 // the channel goes on probation (`channel.rs`). An inconsistent
                 // filter may itself be what is wrong, so the sensor stays in.
+                let settled = self.settled();
                 let channel = &mut self.channels[trigger];
                 channel.suspended = self.window.consistent();
-                channel.refuted = channel.suspended;
+                channel.refuted = channel.suspended && settled;
                 channel.since_change = u32::MAX;
                 self.review.active = false;
                 self.jumps.retracted = self.jumps.retracted.saturating_add(1);
