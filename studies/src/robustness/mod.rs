@@ -1,6 +1,8 @@
 //! `kalfmu robustness`: every estimator FMU, through the C ABI, on its study's
 //! truth with seeded random fault episodes (`episode.rs`), each run against
-//! the same FMU on the clean data (`bench.rs`). Per FMU and fault kind it
+//! the same FMU on the clean data (`bench.rs`) and once more with the
+//! episode's samples missing instead: what a perfect fault detector would
+//! leave the filter, so the data's own limit. Per FMU and fault kind it
 //! prints how soon the estimate was back (median and worst), how far off it
 //! was after, the false fault flags and how often `filter_healthy`
 //! disagreed with the error. The episodes are independent runs: they go to
