@@ -29,15 +29,15 @@ pub struct Channel {
     /// (`rival.rs`): the sensor, not the state, changed. It is on probation:
     /// left out of the updates (status inconsistent) while its row, scored
     /// against the belief without it, has not passed the gate for
-    /// [`SupervisorSettings::reacquire_after`] samples in a row (as many
-    /// as make its failures persistent), for at most a consistency window;
-    /// then it is used again, with the belief without
-    /// it as the rival, so that a sensor still off (a flipped accelerometer
-    /// near a zero crossing agrees for a while) is refuted again and what it
-    /// dragged is undone. Used only where it passed the gate, S1's flipped
-    /// `z2_ddot` was taken in at every crossing and the load never came
-    /// back; on probation it does within 0.1 s of the fault's end. Its
-    /// failures explain no jump either. A channel suspended
+    /// [`SupervisorSettings::reacquire_after`] samples in a row (as many as
+    /// make its failures persistent), for at most a consistency window; then
+    /// it is used again with the belief without it as the rival, so that a
+    /// sensor still off (a flipped accelerometer near a zero crossing agrees
+    /// for a while) is refuted again and what it dragged is undone. Used
+    /// wherever it passed the gate, S1's flipped `z2_ddot` was taken in at
+    /// every crossing and the load never came back; on probation the flip
+    /// costs what the same samples missing cost. Its failures explain no
+    /// jump either. A channel suspended
     /// for its re-acquisition still may: once its fault has ended, the
     /// belief has drifted while it was left out, and a jump it explains
     /// (reviewed, with its own rival) is how it comes back at once. Barred

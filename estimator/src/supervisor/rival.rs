@@ -65,8 +65,10 @@
 //! until its row agrees with the belief without it for a while, then used
 //! again with that belief as its rival, a fault hypothesis of the same kind
 //! (`channel.rs`); without that the sensor, still off, was followed again
-//! at the next sample. All this provided the rival's window is consistent. An inconsistent
-//! filter may be what is wrong: the S5 EKF, its start-up jumps on `Nz`
+//! at the next sample. All this provided the rival's window is consistent
+//! and the filter has been healthy for a window (`restart.rs`, settled;
+//! before that no row is left out of the fault hypothesis either). An
+//! inconsistent or unsettled filter may be what is wrong: the S5 EKF, its start-up jumps on `Nz`
 //! undone and `Nz` suspended, lost `Nz` for 0.6 s and ended a flight with
 //! `Cz_δ` 5.7 % off, against 0.4 % with `Nz` kept. It is a precaution, kept
 //! after most confirmed jumps, so a re-acquisition's rival or a challenger
