@@ -48,20 +48,8 @@ const REACQUISITION: [&str; 7] =
     ["lost_run", "count", "since_last", "inflation", "undone", "restarts", "since_challenge"];
 const CURSOR: [&str; 2] = ["next", "filled"];
 const WINDOW_ENTRY: [&str; 2] = ["clipped_ratios", "rows"];
-const RIVAL_HEADER: [&str; 12] = [
-    "active",
-    "challenger",
-    "jump",
-    "release",
-    "clean_run",
-    "trigger",
-    "evidence",
-    "entries",
-    "kind",
-    "time",
-    "inputs",
-    "states",
-];
+const RIVAL_HEADER: [&str; 10] =
+    ["active", "hypothesis", "clean_run", "trigger", "evidence", "entries", "kind", "time", "inputs", "states"];
 
 fn position(fields: &[&str], name: &str) -> usize {
     fields.iter().position(|f| *f == name).unwrap_or_else(|| panic!("no field {name}"))

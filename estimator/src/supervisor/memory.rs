@@ -20,7 +20,7 @@
 //! Jumps           taken, retracted
 //! ReviewHeader    active, kind, time, inputs, states
 //! ReviewRow × m   explained
-//! RivalHeader     active, challenger, jump, release, clean_run, trigger, evidence, entries, kind, time, inputs, states
+//! RivalHeader     active, hypothesis, clean_run, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! ClimateHeader   learnt, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
@@ -40,6 +40,7 @@ use super::channel::Channel;
 use super::consistency::{Cursor, WindowEntry};
 use super::jump::Jumps;
 use super::reacquisition::Reacquisition;
+use super::rival::Hypothesis;
 use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{FilterKind, Snapshot};
@@ -110,6 +111,16 @@ impl Word for bool {
             1 => Some(true),
             _ => None,
         }
+    }
+}
+
+impl Word for Hypothesis {
+    const VALID: &'static str = "a rival's hypothesis (0 re-acquisition, 1 challenger, 2 jump fault, 3 release)";
+    fn to_word(self) -> u64 {
+        Hypothesis::ALL.iter().position(|h| *h == self).unwrap_or(0) as u64
+    }
+    fn from_word(word: u64) -> Option<Self> {
+        usize::try_from(word).ok().and_then(|i| Hypothesis::ALL.get(i).copied())
     }
 }
 
@@ -190,12 +201,8 @@ struct ReviewRow {
 struct RivalHeader {
     /// A rival is alive.
     active: bool,
-    /// It is a challenger, not a re-acquisition's rival.
-    challenger: bool,
-    /// It is a confirmed single-row jump's fault hypothesis.
-    jump: bool,
-    /// It is the belief without a channel released from probation.
-    release: bool,
+    /// What it stands for ([`Hypothesis::ALL`]'s index).
+    hypothesis: Hypothesis,
     /// Samples in a row the filter's own update rejected no row (a jump's rival).
     clean_run: u32,
     /// The channel that triggered the re-acquisition.
@@ -219,20 +226,7 @@ struct ClimateHeader {
 
 record!(ClimateHeader { learnt, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
-record!(RivalHeader {
-    active,
-    challenger,
-    jump,
-    release,
-    clean_run,
-    trigger,
-    evidence,
-    entries,
-    kind,
-    time,
-    inputs,
-    states
-});
+record!(RivalHeader { active, hypothesis, clean_run, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
 record!(Adaptation { log_scale, mean_ratio });
 record!(Jumps { taken, retracted });
@@ -343,9 +337,7 @@ impl Supervisor {
         let belief = &rival.belief;
         RivalHeader {
             active,
-            challenger: active && rival.challenger,
-            jump: active && rival.jump,
-            release: active && rival.release,
+            hypothesis: if active { rival.hypothesis } else { Hypothesis::Reacquisition },
             clean_run: if active { rival.clean_run } else { 0 },
             trigger: if active { rival.trigger } else { 0 },
             evidence: if active { rival.evidence } else { 0.0 },
@@ -568,9 +560,7 @@ impl Supervisor {
             }
         }
         self.rival.active = rival.active;
-        self.rival.challenger = rival.challenger;
-        self.rival.jump = rival.jump;
-        self.rival.release = rival.release;
+        self.rival.hypothesis = rival.hypothesis;
         self.rival.clean_run = rival.clean_run;
         (self.rival.trigger, self.rival.evidence) = (rival.trigger, rival.evidence);
         self.rival.entries.clear();

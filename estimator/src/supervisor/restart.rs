@@ -141,11 +141,11 @@ impl Supervisor {
         // confirmed jump's fault hypothesis (a precaution kept after most jumps; a
         // belief that the jump dragged rejects rows, and is not learnt from).
         let whole = self.pending.rejected_none();
-        let doubted = self.rival.active && !self.rival.jump;
+        let doubted = self.rival.active && !self.rival.hypothesis.without_trigger();
         let healthy = self.window.consistent() && self.pending.dof > 0 && whole && !doubted;
         let settled = match self.pending.revision {
             super::outcome::Revision::None => true,
-            super::outcome::Revision::Weighed(_) => self.rival.jump,
+            super::outcome::Revision::Weighed(_) => self.rival.hypothesis.without_trigger(),
             _ => false,
         };
         if healthy && settled {

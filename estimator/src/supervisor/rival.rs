@@ -85,20 +85,40 @@ use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{Innovation, Snapshot, StateEstimator};
 
+/// What a rival stands for (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Hypothesis {
+    /// The update the gate alone would have made, kept at a re-acquisition.
+    Reacquisition,
+    /// A belief started from where the states have been, against an
+    /// inconsistent filter.
+    Challenger,
+    /// The belief without the row that a confirmed single-row jump followed.
+    JumpFault,
+    /// The belief without a channel released from probation (`channel.rs`):
+    /// a fault hypothesis that no settled change drops early, since the
+    /// released sensor may still be off.
+    Release,
+}
+
+impl Hypothesis {
+    /// Every hypothesis, in the order the memory numbers them.
+    pub const ALL: [Hypothesis; 4] =
+        [Hypothesis::Reacquisition, Hypothesis::Challenger, Hypothesis::JumpFault, Hypothesis::Release];
+
+    /// The belief without one row (its trigger), which the other rows judge.
+    pub fn without_trigger(self) -> bool {
+        matches!(self, Hypothesis::JumpFault | Hypothesis::Release)
+    }
+}
+
 /// The belief a re-acquisition set aside, while the data decide.
 #[derive(Debug, Clone)]
 pub(super) struct Rival {
     /// A rival is alive.
     pub active: bool,
-    /// It is a challenger (started from where the states have been), not a
-    /// re-acquisition's rival.
-    pub challenger: bool,
-    /// It is the fault hypothesis of a confirmed single-row jump.
-    pub jump: bool,
-    /// It is, more precisely, the belief without a channel released from
-    /// probation (`channel.rs`): a jump's fault hypothesis that no settled
-    /// change drops early, since the released sensor may still be off.
-    pub release: bool,
+    /// What it stands for.
+    pub hypothesis: Hypothesis,
     /// Samples in a row, up to the last committed one, in which the filter's
     /// own update rejected no row.
     pub clean_run: u32,
@@ -118,9 +138,7 @@ impl Rival {
     pub fn new(window: usize) -> Self {
         Self {
             active: false,
-            challenger: false,
-            jump: false,
-            release: false,
+            hypothesis: Hypothesis::Reacquisition,
             clean_run: 0,
             trigger: 0,
             evidence: 0.0,
@@ -133,7 +151,7 @@ impl Rival {
     /// jump's row, which the jumped belief follows and its fault hypothesis
     /// leaves out. It is not scored (see the module documentation).
     pub fn disputed(&self) -> Option<usize> {
-        (self.active && self.jump).then_some(self.trigger)
+        (self.active && self.hypothesis.without_trigger()).then_some(self.trigger)
     }
 }
 
@@ -171,7 +189,10 @@ impl Supervisor {
         failing: impl Fn(usize, f64) -> bool,
     ) -> Result<(), FilterError> {
         // A re-acquisition's rival replaces a confirmed jump's fault hypothesis.
-        if !self.settings.revise || (self.rival.active && !self.rival.jump) || self.pending.forked {
+        if !self.settings.revise
+            || (self.rival.active && !self.rival.hypothesis.without_trigger())
+            || self.pending.forked
+        {
             return Ok(());
         }
         let work = &mut self.work;
@@ -260,7 +281,7 @@ impl Supervisor {
     /// filter at `before`.
     pub(super) fn fork_challenger(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
         let due = self.settings.revise
-            && (!self.rival.active || self.rival.jump)
+            && (!self.rival.active || self.rival.hypothesis.without_trigger())
             && !self.pending.forked
             && !self.window.consistent()
             && !self.channels.iter().any(|c| c.suspended)
@@ -343,11 +364,12 @@ impl Supervisor {
         let horizon = self.rival.entries.len() + 1 >= self.settings.window;
         // A challenger, and a confirmed jump's fault hypothesis, must lead
         // clearly: the incumbent is kept on a near tie.
-        let clearly = self.rival.challenger || self.rival.jump;
+        let hypothesis = self.rival.hypothesis;
+        let clearly = hypothesis != Hypothesis::Reacquisition;
         let ahead = evidence >= threshold || (horizon && evidence > 0.0 && !clearly);
-        self.pending.revision = if ahead && self.rival.challenger {
+        self.pending.revision = if ahead && hypothesis == Hypothesis::Challenger {
             Revision::Restarted
-        } else if ahead && self.rival.jump {
+        } else if ahead && hypothesis.without_trigger() {
             Revision::JumpUndone { trigger: self.rival.trigger }
         } else if ahead {
             Revision::Undone { trigger: self.rival.trigger }
@@ -382,7 +404,7 @@ impl Supervisor {
     /// that sensor), their scores nearly tie, and the evidence drifts by the
     /// rows' variances alone; the samples after the episode decide.
     fn incumbent_explains_all(&self) -> bool {
-        !self.rival.jump || self.pending.rejected_none()
+        !self.rival.hypothesis.without_trigger() || self.pending.rejected_none()
     }
 
     /// A confirmed jump's fault hypothesis is dropped, too, once the jumped
@@ -391,8 +413,7 @@ impl Supervisor {
     /// rival would otherwise cost a second predict and update per sample for
     /// a whole window after most jumps.
     fn jump_settled(&self, evidence: f64) -> bool {
-        self.rival.jump
-            && !self.rival.release
+        self.rival.hypothesis == Hypothesis::JumpFault
             && self.pending.rejected_none()
             && evidence <= 0.0
             && self.rival.clean_run.saturating_add(1) >= self.settings.change_memory
@@ -402,7 +423,7 @@ impl Supervisor {
     /// window takes the sample).
     pub(super) fn commit_rival(&mut self) {
         let reacquisition = &mut self.reacquisition;
-        let challenging = self.rival.active && self.rival.challenger;
+        let challenging = self.rival.active && self.rival.hypothesis == Hypothesis::Challenger;
         reacquisition.since_challenge = if challenging { 0 } else { reacquisition.since_challenge.saturating_add(1) };
         if self.pending.forked {
             let release = self.pending.released.filter(|&c| self.pending.jump_forked == Some(c));
@@ -412,9 +433,15 @@ impl Supervisor {
                 return;
             }
             self.rival.active = true;
-            self.rival.challenger = self.pending.challenged;
-            self.rival.jump = self.pending.jump_forked.is_some();
-            self.rival.release = release.is_some();
+            self.rival.hypothesis = if self.pending.challenged {
+                Hypothesis::Challenger
+            } else if release.is_some() {
+                Hypothesis::Release
+            } else if self.pending.jump_forked.is_some() {
+                Hypothesis::JumpFault
+            } else {
+                Hypothesis::Reacquisition
+            };
             self.rival.clean_run = 0;
             self.rival.trigger = self.pending.reacquired.or(self.pending.jump_forked).unwrap_or(0);
             self.rival.evidence = 0.0;
