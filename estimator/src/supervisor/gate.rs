@@ -235,7 +235,7 @@ impl Supervisor {
             self.fork_challenger(filter)?;
         }
         if let Some(channel) = self.pending.released {
-            self.fork_release_rival(filter, channel)?;
+            self.fork_fault_hypothesis(filter, channel, true)?;
         }
         let mut first_pass = true;
         // No row has been left out by the gate's own tests yet: a re-acquisition
@@ -355,13 +355,12 @@ impl Supervisor {
             } else if self.channels[c].is_stuck_at(v, stuck_after) {
                 self.work.z_gated[c] = f64::NAN;
                 RowOutcome::Stuck
-            } else if self.channels[c].refuted && self.pending.released != Some(c) {
-                // On probation: the other rows contradicted it; scored against
-                // the belief without it, not used (`channel.rs`).
-                self.work.z_gated[c] = f64::NAN;
-                self.work.z_probe[c] = v;
-                RowOutcome::Inconsistent
-            } else if self.channels[c].inconsistent && self.settings.wiring_leaves_out {
+            } else if (self.channels[c].refuted && self.pending.released != Some(c))
+                || (self.channels[c].inconsistent && self.settings.wiring_leaves_out)
+            {
+                // On probation (`channel.rs`) or with its wiring inconsistent
+                // (`wiring.rs`): the other rows contradicted it; scored against
+                // the belief without it, not used.
                 self.work.z_gated[c] = f64::NAN;
                 self.work.z_probe[c] = v;
                 RowOutcome::Inconsistent

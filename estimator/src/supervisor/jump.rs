@@ -317,7 +317,7 @@ impl Supervisor {
             self.pending.retracted.copy_from_slice(&self.review.explained);
         } else if let Some(trigger) = self.review.explained.iter().position(|&e| e) {
             // Confirmed: the fault hypothesis, predicted here, stays as the rival.
-            self.fork_jump_rival(filter, trigger)?;
+            self.fork_fault_hypothesis(filter, trigger, false)?;
         }
         filter.restore(&self.work.before)
     }

@@ -230,47 +230,31 @@ impl Supervisor {
         self.update_rival(filter, disputed)
     }
 
-    /// Keeps, when the review of a jump that row `trigger` alone explained
-    /// has just confirmed it, the fault hypothesis (in `work.hypothesis`,
-    /// predicted to this sample) updated with this sample's rows as the rival
-    /// to be: a spike of a few samples looks like a step and back, and only
+    /// Keeps a belief without row `row`, updated with this sample's other
+    /// rows, as the rival to be, a fault hypothesis of that row (see the
+    /// module documentation); leaves the filter at `before`. The belief is
+    /// either the fault hypothesis of a jump that `row` alone explained, which
+    /// its review has just confirmed (in `work.hypothesis`, predicted to this
+    /// sample: a spike of a few samples looks like a step and back, and only
     /// the samples after it tell, through the other rows, whether the state
-    /// moved (see the module documentation). Leaves the filter at `before`.
-    pub(super) fn fork_jump_rival(
+    /// moved), or, when `released`, `before` itself: `row`'s channel is used
+    /// again, its probation passed, and may still be off where it happened to
+    /// agree for a while (a flipped accelerometer near a zero crossing).
+    pub(super) fn fork_fault_hypothesis(
         &mut self,
         filter: &mut dyn StateEstimator,
-        trigger: usize,
+        row: usize,
+        released: bool,
     ) -> Result<(), FilterError> {
         if !self.settings.revise || self.rival.active || self.pending.forked {
             return Ok(());
         }
-        filter.restore(&self.work.hypothesis)?;
-        let left_out = self.settled().then_some(trigger);
+        filter.restore(if released { &self.work.before } else { &self.work.hypothesis })?;
+        // Only a settled filter leaves the row out (a channel is refuted only then).
+        let left_out = self.settled().then_some(row);
         if self.update_rival(filter, left_out)? {
             self.pending.forked = true;
-            self.pending.jump_forked = Some(trigger);
-        }
-        Ok(())
-    }
-
-    /// Keeps, when a refuted channel is used again (its probation passed),
-    /// the belief without it (from `before`, updated with this sample's other
-    /// rows) as the rival to be: its row may still be off where it happened
-    /// to agree for a while (a flipped accelerometer near a zero crossing),
-    /// and the other rows decide, as for a confirmed jump. Leaves the filter
-    /// at `before`.
-    pub(super) fn fork_release_rival(
-        &mut self,
-        filter: &mut dyn StateEstimator,
-        channel: usize,
-    ) -> Result<(), FilterError> {
-        if !self.settings.revise || self.rival.active || self.pending.forked {
-            return Ok(());
-        }
-        filter.restore(&self.work.before)?;
-        if self.update_rival(filter, Some(channel))? {
-            self.pending.forked = true;
-            self.pending.jump_forked = Some(channel);
+            self.pending.jump_forked = Some(row);
         }
         Ok(())
     }
