@@ -89,7 +89,8 @@ fn filter(kind: FilterKind, case: &LinearCase) -> Box<dyn StateEstimator> {
 /// rejections and re-acquisitions; `jumps_and_adaptation.rs` saves one with a
 /// jump under review and an adapted scale.
 fn settings(window: usize) -> SupervisorSettings {
-    SupervisorSettings { window, ..SupervisorSettings::default().fixed() }
+    // With the wiring checks and their signatures, whose sums are memory too.
+    SupervisorSettings { window, wiring_sigmas: 8.0, wiring_signatures: true, ..SupervisorSettings::default().fixed() }
 }
 
 /// A supervisor of 3 channels after 150 samples with spikes (rejections),
@@ -134,19 +135,22 @@ fn the_memory_starts_with_a_header_that_says_what_it_is_and_what_it_is_for() {
     let (_, s, _) = busy(FilterKind::Ckf, 50);
     let words = saved(&s);
     assert_eq!(words[header_word("tag")].to_le_bytes(), *b"KFSUPMEM");
-    assert_eq!(words[header_word("version")], 9);
+    assert_eq!(words[header_word("version")], 10);
     assert_eq!(words[header_word("channels")], 3);
     assert_eq!(words[header_word("channel_words")], CHANNEL.len() as u64);
     assert_eq!(words[header_word("window")], 50);
     // After the window's entries: the adaptation (2 words), the jump counts (2),
     // the review's header (5) and a flag per channel, the rival's header and its
-    // window of entries, the climate's header (2) and its means, variances and
-    // mean filter variances of the 4 states; no belief, with no jump under review and no rival.
+    // window of entries, the climate's header (2), the signatures' header (2),
+    // the climate's means, variances and mean filter variances of the 4 states,
+    // and the signatures' effects (4 states × 2 per channel) and 8 sums per
+    // channel; no belief, with no jump under review and no rival.
     let tail = entry_word(3, 50, "clipped_ratios");
     let rival = tail + 2 + 2 + 5 + 3;
     let climate = rival + RIVAL_HEADER.len() + 50 * WINDOW_ENTRY.len();
-    assert_eq!(words.len(), climate + 2 + 3 * 4, "the climate ends the memory");
+    assert_eq!(words.len(), climate + 2 + 2 + 3 * 4 + 4 * 2 * 3 + 8 * 3, "the signatures end the memory");
     assert_eq!(words[climate + 1], 4, "the climate of 4 states");
+    assert_eq!(words[climate + 3], 4, "signatures of 4 states");
     assert_eq!(words[rival + position(&RIVAL_HEADER, "active")], 0, "the fixed supervisor keeps no rival");
     assert_eq!(f64::from_bits(words[tail]), 0.0, "ln of the process-noise scale: not adapted");
     // The named fields hold what the supervisor reports.
@@ -205,7 +209,7 @@ fn a_memory_of_another_channel_count_window_or_version_is_refused_saying_so() {
     let mut older = words.clone();
     older[header_word("version")] = 1;
     let error = refusal(&older, 50);
-    assert!(error.contains("layout version 1, this supervisor reads version 9"), "{error}");
+    assert!(error.contains("layout version 1, this supervisor reads version 10"), "{error}");
     let mut wider = words.clone();
     wider[header_word("channel_words")] = 12;
     let error = refusal(&wider, 50);

@@ -607,6 +607,7 @@ pub fn build_supervisor(
         // Not parameters: each FMU's own (S4 leaves an inconsistent telegram out, the others name it).
         wiring_sigmas: descriptor.supervision.wiring_sigmas,
         wiring_leaves_out: descriptor.supervision.wiring_leaves_out,
+        wiring_signatures: descriptor.supervision.wiring_signatures,
         ..SupervisorSettings::default()
     };
     let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())

@@ -2,7 +2,7 @@
 //! the noise, the clock, the held input, the mean and the update diagnostics,
 //! with the argument checks every filter makes the same way.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use crate::error::{check_len, FilterError, Stage};
 use crate::filter::Innovation;
@@ -26,6 +26,9 @@ pub(crate) struct Core<M> {
     /// `Cov(x(t), x(t + dt))` of the last prediction, once a smoother asked
     /// for it ([`StateEstimator::keep_cross_covariance`](crate::StateEstimator::keep_cross_covariance)).
     pub cross: Option<nalgebra::DMatrix<f64>>,
+    /// Scratch of the model differences: a probe state and the model's
+    /// values at `x̂ ± δ` (each `max(n, m)` long).
+    probes: [Vec<f64>; 3],
 }
 
 impl<M: Model> Core<M> {
@@ -47,6 +50,7 @@ impl<M: Model> Core<M> {
             innovation: Innovation::new(m),
             z: DVector::zeros(m),
             cross: None,
+            probes: std::array::from_fn(|_| vec![0.0; n.max(m)]),
             model,
             noise,
             t: t0,
@@ -91,6 +95,58 @@ impl<M: Model> Core<M> {
         check_len("measurement z", self.m(), z.len())?;
         self.z.copy_from_slice(z);
         Ok(self.innovation.select_rows(z))
+    }
+
+    /// See [`StateEstimator::transition_differences`](crate::StateEstimator::transition_differences).
+    pub fn transition_differences(
+        &mut self,
+        u: &[f64],
+        dt: f64,
+        offsets: &mut DMatrix<f64>,
+    ) -> Result<(), FilterError> {
+        let n = self.n();
+        check_len("input u", self.u.len(), u.len())?;
+        check_len("state offsets", n, offsets.nrows())?;
+        let [probe, plus, minus] = &mut self.probes;
+        for mut column in offsets.column_iter_mut() {
+            for sign in [1.0, -1.0] {
+                for i in 0..n {
+                    probe[i] = self.x[i] + sign * column[i];
+                }
+                let out = if sign > 0.0 { &mut *plus } else { &mut *minus };
+                self.model.transition(self.t, dt, &probe[..n], u, &mut out[..n]);
+            }
+            for i in 0..n {
+                column[i] = 0.5 * (plus[i] - minus[i]);
+            }
+        }
+        ensure_finite(offsets.as_slice(), Stage::Predict, "transition differences")
+    }
+
+    /// See [`StateEstimator::observation_differences`](crate::StateEstimator::observation_differences).
+    pub fn observation_differences(
+        &mut self,
+        offsets: &DMatrix<f64>,
+        out: &mut DMatrix<f64>,
+    ) -> Result<(), FilterError> {
+        let (n, m) = (self.n(), self.m());
+        check_len("state offsets", n, offsets.nrows())?;
+        check_len("observation differences", m, out.nrows())?;
+        check_len("observation differences' columns", offsets.ncols(), out.ncols())?;
+        let [probe, plus, minus] = &mut self.probes;
+        for (column, mut response) in offsets.column_iter().zip(out.column_iter_mut()) {
+            for sign in [1.0, -1.0] {
+                for i in 0..n {
+                    probe[i] = self.x[i] + sign * column[i];
+                }
+                let z = if sign > 0.0 { &mut *plus } else { &mut *minus };
+                self.model.observe(self.t, &probe[..n], self.u.as_slice(), &mut z[..m]);
+            }
+            for r in 0..m {
+                response[r] = 0.5 * (plus[r] - minus[r]);
+            }
+        }
+        ensure_finite(out.as_slice(), Stage::Update, "observation differences")
     }
 
     pub fn check_noise(&self, noise: &Noise) -> Result<(), FilterError> {
@@ -272,6 +328,23 @@ macro_rules! core_accessors {
 
         fn hold_input(&mut self, u: &[f64]) -> Result<(), crate::error::FilterError> {
             self.core.hold_input(u)
+        }
+
+        fn transition_differences(
+            &mut self,
+            u: &[f64],
+            dt: f64,
+            offsets: &mut nalgebra::DMatrix<f64>,
+        ) -> Result<(), crate::error::FilterError> {
+            self.core.transition_differences(u, dt, offsets)
+        }
+
+        fn observation_differences(
+            &mut self,
+            offsets: &nalgebra::DMatrix<f64>,
+            out: &mut nalgebra::DMatrix<f64>,
+        ) -> Result<(), crate::error::FilterError> {
+            self.core.observation_differences(offsets, out)
         }
 
         fn keep_cross_covariance(&mut self) {

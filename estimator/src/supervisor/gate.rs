@@ -85,6 +85,9 @@ pub(super) struct Workspace {
     /// The first pass's innovation variances `Sᵢᵢ`, by row (NaN where not
     /// available); with `residuals`, what the wiring checks learn from.
     pub first_variances: Vec<f64>,
+    /// Each channel's wiring score at the last commit (`wiring.rs`, with its
+    /// signature's where those are followed).
+    pub wiring_scores: Vec<f64>,
     /// `z` with only the inconsistent channels' rows, for their prediction (`wiring.rs`).
     pub z_probe: Vec<f64>,
     /// The first pass's shares `(Sᵢᵢ − rᵢ)/Sᵢᵢ`, by row.
@@ -124,6 +127,7 @@ impl Workspace {
         Self {
             before: empty_snapshot(),
             z_gated: vec![f64::NAN; m],
+            wiring_scores: vec![0.0; m],
             rows: Vec::with_capacity(m),
             ratios: vec![f64::NAN; m],
             variances: vec![f64::NAN; m],
@@ -221,6 +225,7 @@ impl Supervisor {
         self.offer(z);
         filter.snapshot_into(&mut self.work.before);
         self.reserve_beliefs();
+        self.prepare_signatures(filter);
         self.review(filter)?;
         if self.restart_due(filter) {
             self.restart(filter)?;
@@ -453,6 +458,7 @@ impl Supervisor {
                 work.first_variances[r] = work.variances[r];
                 work.shares[r] = (1.0 - r_given[(r, r)] / work.variances[r]).clamp(0.0, 1.0);
             }
+            self.signature_work.keep_first_pass(innovation);
         }
         Ok(Some(Pass {
             dof,

@@ -23,10 +23,13 @@
 //! RivalHeader     active, hypothesis, clean_run, trigger, evidence, entries, kind, time, inputs, states
 //! WindowEntry × w the rival's window entries (the first `entries` hold samples)
 //! ClimateHeader   learnt, states
+//! SignatureHeader time, states
 //! then, as floats, the two beliefs under review (the fault hypothesis, then the
 //! jump's), then the rival's: each its inputs, states means and states²
 //! covariance words; then the climate's states means, states variances and
-//! states mean variances of the filter
+//! states mean variances of the filter; then, where signatures are kept, their
+//! effects (states × 2m, column by column) and per channel their evidence (2),
+//! information (3) and fit information (3)
 //! ```
 //!
 //! The `record!` lines below are that table: a record's words are its fields
@@ -49,7 +52,7 @@ use crate::filter::{FilterKind, Snapshot};
 const TAG: u64 = u64::from_le_bytes(*b"KFSUPMEM");
 
 /// The layout's version: 2 is the self-describing one.
-const VERSION: u64 = 9;
+const VERSION: u64 = 10;
 
 /// A value that is one word of the memory.
 trait Word: Sized {
@@ -224,7 +227,15 @@ struct ClimateHeader {
     states: usize,
 }
 
+/// The fault signatures (`signature.rs`): the time of the belief they are
+/// of, and the states of their effects (0: none kept).
+struct SignatureHeader {
+    time: f64,
+    states: usize,
+}
+
 record!(ClimateHeader { learnt, states });
+record!(SignatureHeader { time, states });
 record!(ReviewHeader { active, kind, time, inputs, states });
 record!(RivalHeader { active, hypothesis, clean_run, trigger, evidence, entries, kind, time, inputs, states });
 record!(ReviewRow { explained });
@@ -316,6 +327,7 @@ impl Supervisor {
             + RivalHeader::WORDS
             + w * WindowEntry::WORDS
             + ClimateHeader::WORDS
+            + SignatureHeader::WORDS
     }
 
     /// The review's header as saved: the belief only while a jump awaits review.
@@ -386,6 +398,8 @@ impl Supervisor {
             entry.unwrap_or_default().save(out);
         }
         ClimateHeader { learnt: self.climate.learnt, states: self.climate.mean.len() }.save(out);
+        let signatures = &self.signatures;
+        SignatureHeader { time: signatures.time, states: signatures.effect.nrows() }.save(out);
         if review.active {
             for belief in [&self.review.hypothesis, &self.review.jumped] {
                 for v in belief.input.iter().chain(&belief.mean).chain(&belief.covariance) {
@@ -401,6 +415,13 @@ impl Supervisor {
         }
         for v in self.climate.mean.iter().chain(&self.climate.variance).chain(&self.climate.doubt) {
             out.push(v.to_bits());
+        }
+        if signatures.effect.nrows() > 0 {
+            let per_channel = signatures.evidence.iter().zip(&signatures.information).zip(&signatures.fit_information);
+            let per_channel = per_channel.flat_map(|((a, b), f)| a.iter().chain(b).chain(f));
+            for v in signatures.effect.iter().chain(per_channel) {
+                out.push(v.to_bits());
+            }
         }
     }
 
@@ -437,8 +458,10 @@ impl Supervisor {
         if words.len() < fixed {
             return Err(invalid(format!("{} words, its header says {fixed}", words.len())));
         }
-        let climate_at = fixed - ClimateHeader::WORDS;
-        let climate = ClimateHeader::load(&words[climate_at..fixed], "the climate")?;
+        let signature_at = fixed - SignatureHeader::WORDS;
+        let signature = SignatureHeader::load(&words[signature_at..fixed], "the signatures")?;
+        let climate_at = signature_at - ClimateHeader::WORDS;
+        let climate = ClimateHeader::load(&words[climate_at..signature_at], "the climate")?;
         let rival_at = climate_at - RivalHeader::WORDS - w * WindowEntry::WORDS;
         let review_at = rival_at - ReviewHeader::WORDS - m * ReviewRow::WORDS;
         let review = ReviewHeader::load(&words[review_at..review_at + ReviewHeader::WORDS], "the review")?;
@@ -446,7 +469,8 @@ impl Supervisor {
         let belief_words = 2 * (review.inputs + review.states + review.states * review.states);
         let rival_words = rival.inputs + rival.states + rival.states * rival.states;
         let climate_words = 3 * climate.states;
-        let expected = fixed + belief_words + rival_words + climate_words;
+        let signature_words = if signature.states > 0 { signature.states * 2 * m + 8 * m } else { 0 };
+        let expected = fixed + belief_words + rival_words + climate_words + signature_words;
         if words.len() != expected {
             return Err(invalid(format!("{} words, its header says {expected}", words.len())));
         }
@@ -535,9 +559,14 @@ impl Supervisor {
             }
             rival_entries.push(entry);
         }
-        let floats: Vec<f64> = words[at + ClimateHeader::WORDS..].iter().map(|w| f64::from_bits(*w)).collect();
+        let floats: Vec<f64> =
+            words[at + ClimateHeader::WORDS + SignatureHeader::WORDS..].iter().map(|w| f64::from_bits(*w)).collect();
         let (review_floats, rest) = floats.split_at(belief_words);
-        let (rival_floats, climate_floats) = rest.split_at(rival_words);
+        let (rival_floats, rest) = rest.split_at(rival_words);
+        let (climate_floats, signature_floats) = rest.split_at(climate_words);
+        if signature_floats.iter().any(|v| !v.is_finite()) {
+            return Err(invalid("the signatures hold a value that is not finite".into()));
+        }
         let (climate_mean, climate_variances) = climate_floats.split_at(climate.states);
         let (climate_variance, climate_doubt) = climate_variances.split_at(climate.states);
         if climate_mean.iter().any(|v| !v.is_finite())
@@ -575,6 +604,7 @@ impl Supervisor {
         refill(&mut self.climate.doubt, climate_doubt);
         self.reacquisition = reacquisition;
         self.window.restore(cursor, &entries);
+        self.signatures.load(signature.time, signature.states, m, signature_floats);
         Ok(())
     }
 }

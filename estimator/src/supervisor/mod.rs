@@ -37,6 +37,9 @@
 //!   prediction (a sign, a unit) or sit off zero (gravity left in) is
 //!   inconsistent: left out where the channels contradict each other
 //!   directly, otherwise named with the filter inconsistent.
+//!   Where an unknown input follows a channel, a fault's signature through
+//!   the filter's dynamics tells which channel the others contradict
+//!   (`signature.rs`).
 //! * **Adaptation** (`adaptation.rs`): a bounded, forgetting scale on `Q`
 //!   learnt from the normalised innovations of the rows used.
 //!
@@ -59,6 +62,7 @@ mod reacquisition;
 mod restart;
 mod rival;
 mod settings;
+mod signature;
 mod smoothing_prior;
 mod steps;
 mod wiring;
@@ -76,6 +80,7 @@ use jump::{Jumps, Review};
 use reacquisition::Reacquisition;
 use restart::Climate;
 use rival::Rival;
+use signature::{SignatureWork, Signatures};
 
 use crate::error::FilterError;
 use crate::filter::StateEstimator;
@@ -98,6 +103,7 @@ pub struct Supervisor {
     review: Review,
     rival: Rival,
     climate: Climate,
+    signatures: Signatures,
     /// A belief outside it is lost and restarts (`restart.rs`).
     plausible: PlausibleRange,
     // The pending sample.
@@ -105,6 +111,7 @@ pub struct Supervisor {
     /// The measurement of the pending outcome, as offered.
     z_offered: Vec<f64>,
     work: Workspace,
+    signature_work: SignatureWork,
 }
 
 impl Supervisor {
@@ -124,10 +131,12 @@ impl Supervisor {
             review: Review::new(m),
             rival: Rival::new(settings.window),
             climate: Climate::new(),
+            signatures: Signatures::default(),
             plausible: PlausibleRange::default(),
             pending: Outcome::none(m),
             z_offered: vec![f64::NAN; m],
             work: Workspace::new(m),
+            signature_work: SignatureWork::default(),
         })
     }
 
@@ -327,7 +336,9 @@ impl Supervisor {
                 if reviewed || confirmed_at_once { 0 } else { channel.since_change.saturating_add(1) };
         }
         self.commit_probation();
-        self.commit_wiring();
+        let flux = self.in_flux();
+        self.commit_signatures(flux);
+        self.commit_wiring(flux);
         self.reacquisition.count(&self.pending, self.settings.max_inflation);
         self.commit_rival();
         self.commit_restart();

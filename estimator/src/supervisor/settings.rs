@@ -86,6 +86,12 @@ pub struct SupervisorSettings {
     /// other channels show its mistake, and leaving out the worst would
     /// blame them (docs/supervisor.md § Wiring checks).
     pub wiring_leaves_out: bool,
+    /// Whether the wiring checks also follow each channel's fault through the
+    /// filter's dynamics (`signature.rs`): where an unknown input follows a
+    /// channel, its mistake shows only in the other channels, and only this
+    /// test sees it there. It costs two model transitions per channel and
+    /// sample. Off by default.
+    pub wiring_signatures: bool,
 }
 
 impl Default for SupervisorSettings {
@@ -109,6 +115,7 @@ impl Default for SupervisorSettings {
             max_process_noise_scale: 1e2,
             wiring_sigmas: f64::INFINITY,
             wiring_leaves_out: false,
+            wiring_signatures: false,
         }
     }
 }

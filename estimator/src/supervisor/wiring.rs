@@ -75,6 +75,18 @@ fn forgetting(memory: usize) -> f64 {
 }
 
 impl Supervisor {
+    /// A belief in flux (re-acquired, restarted, jumped, under revision)
+    /// predicts what its own episode did, not what the wiring does.
+    pub(super) fn in_flux(&self) -> bool {
+        let pending = &self.pending;
+        pending.reacquired.is_some()
+            || pending.restarted
+            || pending.jump > 0.0
+            || pending.revision != super::outcome::Revision::None
+            || self.rival.active
+            || self.review.active
+    }
+
     /// Scores each channel's prediction of the pending sample and decides
     /// which channels are inconsistent once their score has passed the
     /// threshold for a tenth of a window: where the verdict names, every such
@@ -82,26 +94,20 @@ impl Supervisor {
     /// and only while at least three channels are available and at most a
     /// third of them (one with fewer than six) pass. One is taken back once
     /// its score is below half the threshold.
-    pub(super) fn commit_wiring(&mut self) {
+    pub(super) fn commit_wiring(&mut self, flux: bool) {
         let threshold = self.settings.wiring_sigmas;
         if !threshold.is_finite() {
             return;
         }
         let (memory, clip) = (self.settings.window, self.thresholds.row.min(1e6).sqrt());
         let reacquire_after = self.settings.reacquire_after;
-        // A belief in flux (re-acquired, restarted, jumped, under revision)
-        // predicts what its own episode did, not what the wiring does.
-        let pending = &self.pending;
-        let flux = pending.reacquired.is_some()
-            || pending.restarted
-            || pending.jump > 0.0
-            || pending.revision != super::outcome::Revision::None
-            || self.rival.active
-            || self.review.active;
-        let work = &self.work;
+        let work = &mut self.work;
+        let signatures = &self.signatures;
+        let wiring_signatures = self.settings.wiring_signatures;
         let mut available = 0;
         for (c, channel) in self.channels.iter_mut().enumerate() {
             let row = self.pending.rows[c];
+            work.wiring_scores[c] = 0.0;
             if matches!(row, RowOutcome::Missing | RowOutcome::Stuck) {
                 continue;
             }
@@ -121,7 +127,13 @@ impl Supervisor {
                     channel.forget_wiring_evidence(memory);
                 }
             }
-            let score = channel.wiring_score();
+            let own = channel.wiring_score();
+            let score = if wiring_signatures {
+                own.max(signatures.wiring_score(c, work.first_variances[c].sqrt()))
+            } else {
+                own
+            };
+            work.wiring_scores[c] = score;
             if channel.inconsistent && score < threshold / 2.0 {
                 channel.inconsistent = false;
             }
@@ -140,7 +152,8 @@ impl Supervisor {
         }
         // With two channels the data cannot say which one is wrong (S1: a
         // flipped load channel makes the other one disagree).
-        let above = self.channels.iter().filter(|c| c.wiring_score() > threshold).count();
+        let scores = &self.work.wiring_scores;
+        let above = scores.iter().filter(|&&s| s > threshold).count();
         if available < 3 || above == 0 || above > (available / 3).max(1) {
             return;
         }
@@ -151,10 +164,18 @@ impl Supervisor {
             .filter(|(c, channel)| {
                 !channel.inconsistent && !matches!(self.pending.rows[*c], RowOutcome::Missing | RowOutcome::Stuck)
             })
-            .map(|(_, channel)| channel)
-            .max_by(|a, b| a.wiring_score().total_cmp(&b.wiring_score()));
-        if let Some(channel) = worst.filter(|c| c.wiring_run >= settled) {
+            .max_by(|a, b| scores[a.0].total_cmp(&scores[b.0]));
+        if let Some((c, channel)) = worst.filter(|(_, channel)| channel.wiring_run >= settled) {
             channel.inconsistent = true;
+            // The others' signatures were scored against innovations this
+            // channel's mistake was in: they start again (a neighbour's
+            // signature looks much like the culprit's).
+            self.signatures.forget_all_but(c);
+            for (other, channel) in self.channels.iter_mut().enumerate() {
+                if other != c && !channel.inconsistent {
+                    channel.wiring_run = 0;
+                }
+            }
         }
     }
 }

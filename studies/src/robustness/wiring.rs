@@ -69,8 +69,8 @@ struct Finding {
     beyond: Option<f64>,
     /// `filter_healthy` was false within [`WITHIN`] of that.
     unhealthy: bool,
-    /// The FMU refused a step.
-    failed: bool,
+    /// Why the FMU refused a step, if it did.
+    failed: Option<String>,
 }
 
 /// The cases of a bench: every mistake on every input it applies to.
@@ -129,7 +129,7 @@ fn judge(bench: &Bench, trace: &Trace, case: &Case, start: usize) -> Finding {
         mean_square.is_nan() || mean_square > 9.0
     });
     let unhealthy = beyond.is_some_and(|k| trace.healthy[k..(k + within).min(samples)].iter().any(|h| !h));
-    Finding { named, blamed, beyond: beyond.map(seconds), unhealthy, failed: trace.failure.is_some() }
+    Finding { named, blamed, beyond: beyond.map(seconds), unhealthy, failed: trace.failure.clone() }
 }
 
 /// One FMU's wiring table.
@@ -183,7 +183,7 @@ pub fn study(bench: &Bench, args: &Args, start_time: f64) -> anyhow::Result<Stri
         let median = times.get(times.len() / 2).map_or("—".into(), |t| format!("{t:.2} s"));
         let beyond = of.iter().filter(|f| f.beyond.is_some()).count();
         let unhealthy = of.iter().filter(|f| f.unhealthy).count();
-        let failed = of.iter().filter(|f| f.failed).count();
+        let failed = of.iter().filter(|f| f.failed.is_some()).count();
         let _ = writeln!(
             out,
             "  {:<11} {:>5} {:>13} {:>9} {:>8} {:>11} {:>12}{}",
@@ -202,13 +202,14 @@ pub fn study(bench: &Bench, args: &Args, start_time: f64) -> anyhow::Result<Stri
             let names: Vec<&str> = case.channels.iter().map(|&c| bench.inputs[c]).collect();
             let _ = writeln!(
                 out,
-                "    {} {}: named {}, {}beyond σ {}, unhealthy {}",
+                "    {} {}: named {}, {}beyond σ {}, unhealthy {}{}",
                 case.mistake.name(),
                 names.join("+"),
                 finding.named.map_or("never".into(), |t| format!("at {t:.3} s")),
                 if finding.blamed { "another blamed, " } else { "" },
                 finding.beyond.map_or("never".into(), |t| format!("at {t:.3} s")),
-                finding.unhealthy
+                finding.unhealthy,
+                finding.failed.as_ref().map_or(String::new(), |why| format!(", failed: {why}"))
             );
         }
     }

@@ -1,0 +1,424 @@
+//! Fault signatures: which channel's wiring the other channels contradict.
+//!
+//! Where an unknown input follows a channel (each S2 or S3 axle box is driven
+//! by its own wheel force), a flipped channel drags its force along: its own
+//! innovations stay white and the channel's scores in `wiring.rs` see
+//! nothing. The mistake shows only in the other channels (the bogie frame
+//! above it), and there only through the filter's dynamics, a few samples
+//! later. A test that knows those dynamics sees it: the generalised
+//! likelihood ratio of an additive fault `β·r` on one channel (Willsky and
+//! Jones; docs/references.md), with the regressors `r` the channel's
+//! prediction about its mean (a scale: a flipped sign, a unit) and 1 (an
+//! offset: gravity left in).
+//!
+//! For each channel and regressor the fault's *signature* is followed: its
+//! effect `μ` on the mean, through the filter's own gain. With `F` and `H`
+//! the model linearised at the mean (central differences of the model,
+//! [`StateEstimator::transition_differences`]), `P⁻` and the first pass's
+//! `S` on the available rows `a`, and the rows used `u`:
+//!
+//! ```text
+//! μ⁻ = F·μ⁺                                  (the prediction)
+//! ρ  = r·e_c − H·μ⁻                          (its effect on the innovations, rows a)
+//! μ⁺ = μ⁻ + P⁻·H_uᵀ·S_u⁻¹·ρ_u                (the update's gain)
+//! ```
+//!
+//! The evidence forgets with `λ = 1 − 1/window`: `a = Σ λʲ·ρ̃ᵀν̃` and
+//! `B = Σ λ²ʲ·ρ̃ᵀρ̃` (whitened by the Cholesky factor of `S`), and the score
+//! is `√(aᵀB⁻¹a)`: for a consistent filter `aᵀB⁻¹a` is χ² with two degrees
+//! of freedom, so a score above `wiring_sigmas` = 8 comes by chance about
+//! once in 1e14 samples. As in `wiring.rs`, a score counts only where the
+//! fault it fits is wiring-sized (the fit `β̂` with `λʲ` weights: a scale
+//! term beyond [`SCALE_TOLERANCE`], an offset beyond [`BIAS_TOLERANCE`] σ).
+//! The fit's scale is that of the channel's *prediction*, which a flipped
+//! channel has already dragged along, so its sign says nothing; once the
+//! channel is left out, its own scores (`wiring.rs`) name the cause.
+//!
+//! The model is linearised at the predicted mean of each sample, not at the
+//! last posterior: the two agree where the model is linear over a sample
+//! (the vehicle models but for their dampers' kinks).
+
+use nalgebra::{DMatrix, DVector};
+
+use super::wiring::{BIAS_TOLERANCE, SCALE_TOLERANCE};
+use super::Supervisor;
+use crate::error::FilterError;
+use crate::filter::{Innovation, StateEstimator};
+use crate::linalg::{cholesky_in_place, solve_lower};
+
+/// `H[r, :]·M[:, column]`.
+fn row_dot(h: &DMatrix<f64>, r: usize, m: &DMatrix<f64>, column: usize) -> f64 {
+    (0..h.ncols()).map(|i| h[(r, i)] * m[(i, column)]).sum()
+}
+
+/// Solves `Lᵀ·x = b` in place (`L` lower-triangular, `n × n` in the top
+/// left of a matrix with leading dimension `ld`).
+fn solve_lower_transposed(l: &[f64], ld: usize, n: usize, b: &mut [f64]) {
+    for j in (0..n).rev() {
+        let mut v = b[j];
+        for i in j + 1..n {
+            v -= l[j * ld + i] * b[i];
+        }
+        b[j] = v / l[j * ld + j];
+    }
+}
+
+/// The offset of a difference, relative to each state's σ: small against
+/// the models' kinks, large against rounding.
+const PROBE: f64 = 1e-3;
+
+/// Regressors per channel: its prediction about its mean (a scale), and 1 (an offset).
+const KINDS: usize = 2;
+
+/// The signatures and their evidence: the supervisor's memory of them.
+#[derive(Debug, Clone)]
+pub(super) struct Signatures {
+    /// The effect on the mean of a unit fault, a column per channel and
+    /// regressor (`2c` the scale, `2c + 1` the offset), after the last
+    /// committed update (`n × 2m`; empty before the first).
+    pub effect: DMatrix<f64>,
+    /// Per channel, `a` (λʲ-weighted).
+    pub evidence: Vec<[f64; KINDS]>,
+    /// Per channel, `B` (λ²ʲ-weighted; `[xx, xy, yy]`).
+    pub information: Vec<[f64; 3]>,
+    /// Per channel, the fit's `Σ λʲ·ρ̃ᵀρ̃` (`[xx, xy, yy]`).
+    pub fit_information: Vec<[f64; 3]>,
+    /// The time of the belief `effect` is of (NaN: none).
+    pub time: f64,
+}
+
+/// What a gate prepares for the commit.
+#[derive(Debug, Clone, Default)]
+pub(super) struct SignatureWork {
+    /// `μ⁻`, then `μ⁺` (`n × 2m`).
+    pub effect: DMatrix<f64>,
+    /// `H` at the predicted mean (`m × n`).
+    pub h: DMatrix<f64>,
+    /// `P⁻` (`n × n`).
+    pub p: DMatrix<f64>,
+    /// The first pass's `S` (`m × m`, on its rows) and rows.
+    pub s: DMatrix<f64>,
+    pub rows: Vec<usize>,
+    /// Scratch: the probe offsets (`n × n`), a Cholesky factor, vectors.
+    offsets: DMatrix<f64>,
+    factor: DMatrix<f64>,
+    nu: DVector<f64>,
+    rho: DVector<f64>,
+    weights: DVector<f64>,
+    ht_w: DVector<f64>,
+    whitened: DMatrix<f64>,
+    /// Prepared at this gate, its first pass still to come.
+    prepared: bool,
+    /// The first pass was made (the commit has something to learn from).
+    ready: bool,
+}
+
+impl SignatureWork {
+    /// At the first pass of a gate the signatures were prepared for: keeps
+    /// its rows and `S`.
+    pub fn keep_first_pass(&mut self, innovation: &Innovation) {
+        if !self.prepared {
+            return;
+        }
+        self.prepared = false;
+        self.rows.clear();
+        self.rows.extend_from_slice(innovation.rows());
+        for &a in &self.rows {
+            for &b in &self.rows {
+                self.s[(a, b)] = innovation.covariance()[(a, b)];
+            }
+        }
+        self.ready = true;
+    }
+}
+
+impl Default for Signatures {
+    fn default() -> Self {
+        Self {
+            effect: DMatrix::zeros(0, 0),
+            evidence: Vec::new(),
+            information: Vec::new(),
+            fit_information: Vec::new(),
+            time: f64::NAN,
+        }
+    }
+}
+
+impl Signatures {
+    fn reserve(&mut self, n: usize, m: usize) {
+        if self.effect.nrows() != n || self.effect.ncols() != KINDS * m {
+            self.effect = DMatrix::zeros(n, KINDS * m);
+            self.evidence = vec![[0.0; KINDS]; m];
+            self.information = vec![[0.0; 3]; m];
+            self.fit_information = vec![[0.0; 3]; m];
+            self.time = f64::NAN;
+        }
+    }
+
+    /// Takes back what the memory saved (`memory.rs`): the effects of
+    /// `states` states for `m` channels, then the per-channel sums; none
+    /// when `states` is 0.
+    pub fn load(&mut self, time: f64, states: usize, m: usize, floats: &[f64]) {
+        if states == 0 {
+            *self = Self::default();
+            return;
+        }
+        self.effect = DMatrix::from_column_slice(states, KINDS * m, &floats[..states * KINDS * m]);
+        let per_channel = &floats[states * KINDS * m..];
+        self.evidence.clear();
+        self.information.clear();
+        self.fit_information.clear();
+        for words in per_channel.chunks_exact(8) {
+            self.evidence.push([words[0], words[1]]);
+            self.information.push([words[2], words[3], words[4]]);
+            self.fit_information.push([words[5], words[6], words[7]]);
+        }
+        self.time = time;
+    }
+
+    /// Drops the evidence of every channel but `c`.
+    pub fn forget_all_but(&mut self, c: usize) {
+        for (other, ((a, b), f)) in
+            self.evidence.iter_mut().zip(&mut self.information).zip(&mut self.fit_information).enumerate()
+        {
+            if other != c {
+                *a = [0.0; KINDS];
+                *b = [0.0; 3];
+                *f = [0.0; 3];
+            }
+        }
+    }
+
+    /// The score of channel `c` where the fault it fits is wiring-sized (a
+    /// scale term beyond [`SCALE_TOLERANCE`], an offset beyond
+    /// [`BIAS_TOLERANCE`] times `sigma`, the channel's innovation σ), else 0.
+    pub fn wiring_score(&self, c: usize, sigma: f64) -> f64 {
+        let (score, fit) = self.score(c);
+        let sized = fit[0].abs() > SCALE_TOLERANCE || (sigma > 0.0 && fit[1].abs() > BIAS_TOLERANCE * sigma);
+        if sized {
+            score
+        } else {
+            0.0
+        }
+    }
+
+    /// The score of channel `c` and the fit behind it: `√(aᵀB⁻¹a)`, and `β̂`.
+    pub fn score(&self, c: usize) -> (f64, [f64; KINDS]) {
+        let (Some(a), Some(b), Some(f)) = (self.evidence.get(c), self.information.get(c), self.fit_information.get(c))
+        else {
+            return (0.0, [0.0; KINDS]);
+        };
+        let quadratic = |m: &[f64; 3], v: &[f64; 2]| -> Option<[f64; 2]> {
+            let det = m[0] * m[2] - m[1] * m[1];
+            (det > 1e-12 * (m[0] * m[2]).max(f64::MIN_POSITIVE))
+                .then(|| [(m[2] * v[0] - m[1] * v[1]) / det, (m[0] * v[1] - m[1] * v[0]) / det])
+        };
+        let Some(solved) = quadratic(b, a) else { return (0.0, [0.0; KINDS]) };
+        let chi2 = (a[0] * solved[0] + a[1] * solved[1]).max(0.0);
+        (chi2.sqrt(), quadratic(f, a).unwrap_or([0.0; KINDS]))
+    }
+}
+
+impl Supervisor {
+    /// At a gate, before its first pass, with `filter` at the predicted
+    /// belief: predicts the signatures to this sample, and keeps `H` and
+    /// `P⁻` for the commit. Where the model cannot be differenced there
+    /// (a non-finite value), the signatures start again: a test of the
+    /// wiring never fails a step.
+    pub(super) fn prepare_signatures(&mut self, filter: &mut dyn StateEstimator) {
+        if self.predict_signatures(filter).is_err() {
+            self.signature_work.prepared = false;
+            self.signatures.effect.fill(0.0);
+            self.signatures.forget_all_but(usize::MAX);
+            self.signatures.time = f64::NAN;
+        }
+    }
+
+    fn predict_signatures(&mut self, filter: &mut dyn StateEstimator) -> Result<(), FilterError> {
+        let work = &mut self.signature_work;
+        work.ready = false;
+        work.prepared = false;
+        if !self.settings.wiring_signatures || !self.settings.wiring_sigmas.is_finite() {
+            return Ok(());
+        }
+        let (n, m) = (filter.state_dim(), self.channels.len());
+        self.signatures.reserve(n, m);
+        if work.effect.nrows() != n || work.effect.ncols() != KINDS * m {
+            work.effect = DMatrix::zeros(n, KINDS * m);
+            work.h = DMatrix::zeros(m, n);
+            work.p = DMatrix::zeros(n, n);
+            work.s = DMatrix::zeros(m, m);
+            work.rows = Vec::with_capacity(m);
+            work.offsets = DMatrix::zeros(n, n);
+            work.factor = DMatrix::zeros(m, m);
+            work.nu = DVector::zeros(m);
+            work.rho = DVector::zeros(m);
+            work.weights = DVector::zeros(m);
+            work.ht_w = DVector::zeros(n);
+            work.whitened = DMatrix::zeros(m, KINDS * m);
+        }
+        let sigma: &mut DVector<f64> = &mut work.ht_w;
+        for i in 0..n {
+            sigma[i] = filter.variance(i).max(0.0).sqrt().max(f64::MIN_POSITIVE);
+        }
+        // The prediction: each effect column scaled to a small offset, F·δ, scaled back.
+        work.effect.copy_from(&self.signatures.effect);
+        let dt = filter.time() - self.signatures.time;
+        if dt > 0.0 {
+            for mut column in work.effect.column_iter_mut() {
+                let size = column.iter().zip(sigma.iter()).fold(0.0_f64, |s, (v, g)| s.max(v.abs() / g));
+                if size == 0.0 || !size.is_finite() {
+                    column.fill(0.0);
+                    continue;
+                }
+                column *= PROBE / size;
+            }
+            let input = self.work.before.input.as_slice();
+            filter.transition_differences(input, dt, &mut work.effect)?;
+            for (mut column, before) in work.effect.column_iter_mut().zip(self.signatures.effect.column_iter()) {
+                let size = before.iter().zip(sigma.iter()).fold(0.0_f64, |s, (v, g)| s.max(v.abs() / g));
+                if size > 0.0 && size.is_finite() {
+                    column *= size / PROBE;
+                }
+            }
+        }
+        work.offsets.fill(0.0);
+        for i in 0..n {
+            work.offsets[(i, i)] = PROBE * sigma[i];
+        }
+        filter.observation_differences(&work.offsets, &mut work.h)?;
+        for i in 0..n {
+            let scale = 1.0 / (PROBE * sigma[i]);
+            work.h.column_mut(i).scale_mut(scale);
+        }
+        filter.write_covariance(&mut work.p);
+        work.prepared = true;
+        Ok(())
+    }
+
+    /// At a commit: the signatures' effect on this sample's innovations, the
+    /// evidence (unless the belief is in flux), and their update through the
+    /// rows used.
+    pub(super) fn commit_signatures(&mut self, flux: bool) {
+        let work = &mut self.signature_work;
+        if !work.ready {
+            return;
+        }
+        work.ready = false;
+        let m = self.channels.len();
+        let k = work.rows.len();
+        let clip = self.thresholds.row.min(1e6).sqrt();
+        let lambda = 1.0 - 1.0 / self.settings.window.max(2) as f64;
+        // The Cholesky factor of S on the first pass's rows, in the top-left k × k.
+        for (i, &a) in work.rows.iter().enumerate() {
+            for (j, &b) in work.rows.iter().enumerate() {
+                work.factor[(i, j)] = work.s[(a, b)];
+            }
+        }
+        if k == 0 || cholesky_in_place(work.factor.as_mut_slice(), m, k).is_err() {
+            self.signatures.time = self.work.before.time;
+            self.signatures.effect.copy_from(&work.effect);
+            return;
+        }
+        for (i, &r) in work.rows.iter().enumerate() {
+            work.nu[i] = self.work.residuals[r];
+        }
+        solve_lower(work.factor.as_slice(), m, k, work.nu.as_mut_slice(), m, 1);
+        for v in work.nu.iter_mut().take(k) {
+            *v = v.clamp(-clip, clip);
+        }
+        // ρ for every column, whitened (kept for the update below).
+        for column in 0..KINDS * m {
+            let (c, kind) = (column / KINDS, column % KINDS);
+            let regressor = match kind {
+                0 => self.z_offered[c] - self.work.residuals[c] - self.channels[c].prediction_mean,
+                _ => 1.0,
+            };
+            for (i, &r) in work.rows.iter().enumerate() {
+                let mut rho = -row_dot(&work.h, r, &work.effect, column);
+                if r == c && regressor.is_finite() {
+                    rho += regressor;
+                }
+                work.whitened[(i, column)] = rho;
+            }
+        }
+        solve_lower(work.factor.as_slice(), m, k, work.whitened.as_mut_slice(), m, KINDS * m);
+        if !flux {
+            for c in 0..m {
+                if !work.rows.contains(&c) {
+                    continue;
+                }
+                let (x, y) = (work.whitened.column(KINDS * c), work.whitened.column(KINDS * c + 1));
+                let (x, y) = (x.rows(0, k), y.rows(0, k));
+                let nu = work.nu.rows(0, k);
+                let a = &mut self.signatures.evidence[c];
+                a[0] = lambda * a[0] + x.dot(&nu);
+                a[1] = lambda * a[1] + y.dot(&nu);
+                let products = [x.dot(&x), x.dot(&y), y.dot(&y)];
+                let (b, f) = (&mut self.signatures.information[c], &mut self.signatures.fit_information[c]);
+                for j in 0..3 {
+                    b[j] = lambda * lambda * b[j] + products[j];
+                    f[j] = lambda * f[j] + products[j];
+                }
+            }
+        }
+        // μ⁺ = μ⁻ + P⁻·H_uᵀ·S_u⁻¹·ρ_u on the rows used.
+        let used: usize = work.rows.iter().filter(|&&r| self.pending.rows[r] == super::RowOutcome::Used).count();
+        let all_used = used == k;
+        if used > 0 && !all_used {
+            // The factor of S on the rows used only, in place of the first pass's.
+            let rows = &self.pending.rows;
+            let used_rows = || work.rows.iter().filter(|&&r| rows[r] == super::RowOutcome::Used).enumerate();
+            for (i, &a) in used_rows() {
+                for (j, &b) in used_rows() {
+                    work.factor[(i, j)] = work.s[(a, b)];
+                }
+            }
+            if cholesky_in_place(work.factor.as_mut_slice(), m, used).is_err() {
+                self.signatures.time = self.work.before.time;
+                self.signatures.effect.copy_from(&work.effect);
+                return;
+            }
+        }
+        if used > 0 {
+            for column in 0..KINDS * m {
+                // ρ on the rows used (from the whitened one when all are: L·ρ̃).
+                let c = column / KINDS;
+                let mut i = 0;
+                for &r in &work.rows {
+                    if self.pending.rows[r] != super::RowOutcome::Used {
+                        continue;
+                    }
+                    let mut rho = -row_dot(&work.h, r, &work.effect, column);
+                    if r == c {
+                        let regressor = match column % KINDS {
+                            0 => self.z_offered[c] - self.work.residuals[c] - self.channels[c].prediction_mean,
+                            _ => 1.0,
+                        };
+                        if regressor.is_finite() {
+                            rho += regressor;
+                        }
+                    }
+                    work.rho[i] = rho;
+                    i += 1;
+                }
+                // S_u⁻¹·ρ_u = L⁻ᵀ·L⁻¹·ρ_u.
+                solve_lower(work.factor.as_slice(), m, used, work.rho.as_mut_slice(), m, 1);
+                solve_lower_transposed(work.factor.as_slice(), m, used, work.rho.as_mut_slice());
+                work.weights.fill(0.0);
+                let mut i = 0;
+                for &r in &work.rows {
+                    if self.pending.rows[r] == super::RowOutcome::Used {
+                        work.weights[r] = work.rho[i];
+                        i += 1;
+                    }
+                }
+                work.h.tr_mul_to(&work.weights, &mut work.ht_w);
+                let mut effect = work.effect.column_mut(column);
+                effect.gemv(1.0, &work.p, &work.ht_w, 1.0);
+            }
+        }
+        self.signatures.effect.copy_from(&work.effect);
+        self.signatures.time = self.work.before.time;
+    }
+}
