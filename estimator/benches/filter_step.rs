@@ -152,13 +152,17 @@ impl FilterVisitor for Bench<'_> {
 
 /// The supervised loops the benchmarks compare, by name: the supervisor's settings and
 /// the fixed-lag smoother's lag in samples (0: none).
-fn supervised_variants() -> [(&'static str, SupervisorSettings, usize); 4] {
+fn supervised_variants() -> [(&'static str, SupervisorSettings, usize); 5] {
     let default = SupervisorSettings::default();
+    // S3's wiring checks: the channels' own scores and their fault signatures.
+    let signatures =
+        SupervisorSettings { wiring_sigmas: 8.0, wiring_leaves_out: true, wiring_signatures: true, ..default };
     [
         ("gate", default.fixed(), 0),
         ("jumps", default.adaptive(0), 0),
         ("jumps+adaptation", default, 0),
         ("jumps+adaptation+lag100", default, FIXED_LAG),
+        ("jumps+adaptation+signatures", signatures, 0),
     ]
 }
 

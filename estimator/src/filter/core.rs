@@ -7,7 +7,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::error::{check_len, FilterError, Stage};
 use crate::filter::Innovation;
 use crate::gaussian::Gaussian;
-use crate::model::Model;
+use crate::model::{Component, Model, BLOCK_POINTS};
 use crate::noise::Noise;
 
 #[derive(Debug, Clone)]
@@ -27,8 +27,18 @@ pub(crate) struct Core<M> {
     /// for it ([`StateEstimator::keep_cross_covariance`](crate::StateEstimator::keep_cross_covariance)).
     pub cross: Option<nalgebra::DMatrix<f64>>,
     /// Scratch of the model differences: a probe state and the model's
-    /// values at `x̂ ± δ` (each `max(n, m)` long).
+    /// values at `x̂ + δ` and `x̂` (each `max(n, m)` long).
     probes: [Vec<f64>; 3],
+    /// Blocks of offset states for the transition differences.
+    probe_blocks: ProbeBlocks,
+}
+
+/// A block of states and its transition, with the model's scratch.
+#[derive(Debug, Clone)]
+struct ProbeBlocks {
+    x: Vec<Component>,
+    y: Vec<Component>,
+    scratch: Vec<f64>,
 }
 
 impl<M: Model> Core<M> {
@@ -51,6 +61,11 @@ impl<M: Model> Core<M> {
             z: DVector::zeros(m),
             cross: None,
             probes: std::array::from_fn(|_| vec![0.0; n.max(m)]),
+            probe_blocks: ProbeBlocks {
+                x: vec![[0.0; BLOCK_POINTS]; n],
+                y: vec![[0.0; BLOCK_POINTS]; n],
+                scratch: vec![0.0; 2 * n + m],
+            },
             model,
             noise,
             t: t0,
@@ -98,6 +113,7 @@ impl<M: Model> Core<M> {
     }
 
     /// See [`StateEstimator::transition_differences`](crate::StateEstimator::transition_differences).
+    /// The offset states go through the model in blocks, as sigma points do.
     pub fn transition_differences(
         &mut self,
         u: &[f64],
@@ -107,17 +123,31 @@ impl<M: Model> Core<M> {
         let n = self.n();
         check_len("input u", self.u.len(), u.len())?;
         check_len("state offsets", n, offsets.nrows())?;
-        let [probe, plus, minus] = &mut self.probes;
-        for mut column in offsets.column_iter_mut() {
-            for sign in [1.0, -1.0] {
+        let [_, _, base] = &mut self.probes;
+        self.model.transition(self.t, dt, self.x.as_slice(), u, &mut base[..n]);
+        let blocks = &mut self.probe_blocks;
+        let mut lanes = [usize::MAX; BLOCK_POINTS];
+        let mut filled = 0;
+        for j in 0..=offsets.ncols() {
+            let last = j == offsets.ncols();
+            if !last && offsets.column(j).iter().any(|v| *v != 0.0) {
                 for i in 0..n {
-                    probe[i] = self.x[i] + sign * column[i];
+                    blocks.x[i][filled] = self.x[i] + offsets[(i, j)];
                 }
-                let out = if sign > 0.0 { &mut *plus } else { &mut *minus };
-                self.model.transition(self.t, dt, &probe[..n], u, &mut out[..n]);
+                lanes[filled] = j;
+                filled += 1;
             }
-            for i in 0..n {
-                column[i] = 0.5 * (plus[i] - minus[i]);
+            if filled == BLOCK_POINTS || (last && filled > 0) {
+                for (i, component) in blocks.x.iter_mut().enumerate() {
+                    component[filled..].fill(self.x[i]);
+                }
+                self.model.transition_block(self.t, dt, &blocks.x, u, &mut blocks.y, &mut blocks.scratch);
+                for (lane, &column) in lanes[..filled].iter().enumerate() {
+                    for i in 0..n {
+                        offsets[(i, column)] = blocks.y[i][lane] - base[i];
+                    }
+                }
+                filled = 0;
             }
         }
         ensure_finite(offsets.as_slice(), Stage::Predict, "transition differences")
@@ -133,17 +163,19 @@ impl<M: Model> Core<M> {
         check_len("state offsets", n, offsets.nrows())?;
         check_len("observation differences", m, out.nrows())?;
         check_len("observation differences' columns", offsets.ncols(), out.ncols())?;
-        let [probe, plus, minus] = &mut self.probes;
+        let [probe, plus, base] = &mut self.probes;
+        self.model.observe(self.t, self.x.as_slice(), self.u.as_slice(), &mut base[..m]);
         for (column, mut response) in offsets.column_iter().zip(out.column_iter_mut()) {
-            for sign in [1.0, -1.0] {
-                for i in 0..n {
-                    probe[i] = self.x[i] + sign * column[i];
-                }
-                let z = if sign > 0.0 { &mut *plus } else { &mut *minus };
-                self.model.observe(self.t, &probe[..n], self.u.as_slice(), &mut z[..m]);
+            if column.iter().all(|v| *v == 0.0) {
+                response.fill(0.0);
+                continue;
             }
+            for i in 0..n {
+                probe[i] = self.x[i] + column[i];
+            }
+            self.model.observe(self.t, &probe[..n], self.u.as_slice(), &mut plus[..m]);
             for r in 0..m {
-                response[r] = 0.5 * (plus[r] - minus[r]);
+                response[r] = plus[r] - base[r];
             }
         }
         ensure_finite(out.as_slice(), Stage::Update, "observation differences")

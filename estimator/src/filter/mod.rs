@@ -73,13 +73,13 @@ pub trait StateEstimator {
     fn variance(&self, i: usize) -> f64;
     /// The model's response to state offsets, for a test that follows a
     /// fault's effect through the filter: each column `δ` of `offsets` is
-    /// replaced by `(φ(x̂ + δ) − φ(x̂ − δ))/2`, one transition over `dt` with
-    /// input `u` from the current mean `x̂` (`F·δ` where the model is linear
-    /// over `±δ`). The belief is untouched.
+    /// replaced by `φ(x̂ + δ) − φ(x̂)`, one transition over `dt` with input
+    /// `u` from the current mean `x̂` (`F·δ` where the model is linear over
+    /// `δ`); a column of zeros stays zero, uncomputed. The belief is untouched.
     fn transition_differences(&mut self, u: &[f64], dt: f64, offsets: &mut DMatrix<f64>) -> Result<(), FilterError>;
-    /// `(h(x̂ + δ) − h(x̂ − δ))/2` at the current mean and held input for each
-    /// column `δ` of `offsets`, into the columns of `out` (`m` rows). The
-    /// belief is untouched.
+    /// `h(x̂ + δ) − h(x̂)` at the current mean and held input for each column
+    /// `δ` of `offsets`, into the columns of `out` (`m` rows). The belief is
+    /// untouched.
     fn observation_differences(&mut self, offsets: &DMatrix<f64>, out: &mut DMatrix<f64>) -> Result<(), FilterError>;
     /// The square root of `P` the filter propagates, if it propagates one.
     fn sqrt_covariance(&self) -> Option<&DMatrix<f64>> {

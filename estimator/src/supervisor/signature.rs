@@ -13,7 +13,7 @@
 //!
 //! For each channel and regressor the fault's *signature* is followed: its
 //! effect `μ` on the mean, through the filter's own gain. With `F` and `H`
-//! the model linearised at the mean (central differences of the model,
+//! the model linearised at the mean (differences of the model,
 //! [`StateEstimator::transition_differences`]), `P⁻` and the first pass's
 //! `S` on the available rows `a`, and the rows used `u`:
 //!
@@ -44,12 +44,7 @@ use super::wiring::{BIAS_TOLERANCE, SCALE_TOLERANCE};
 use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{Innovation, StateEstimator};
-use crate::linalg::{cholesky_in_place, solve_lower};
-
-/// `H[r, :]·M[:, column]`.
-fn row_dot(h: &DMatrix<f64>, r: usize, m: &DMatrix<f64>, column: usize) -> f64 {
-    (0..h.ncols()).map(|i| h[(r, i)] * m[(i, column)]).sum()
-}
+use crate::linalg::{cholesky_in_place, mul_to, solve_lower, tr_mul_add};
 
 /// Solves `Lᵀ·x = b` in place (`L` lower-triangular, `n × n` in the top
 /// left of a matrix with leading dimension `ld`).
@@ -103,10 +98,14 @@ pub(super) struct SignatureWork {
     offsets: DMatrix<f64>,
     factor: DMatrix<f64>,
     nu: DVector<f64>,
-    rho: DVector<f64>,
-    weights: DVector<f64>,
-    ht_w: DVector<f64>,
+    /// `ρ` (`m × 2m`), `G` (`m × 2m`), `Hᵀ·G` (`n × 2m`), `L⁻¹·ρ_a`.
+    rho: DMatrix<f64>,
+    gain: DMatrix<f64>,
+    spread: DMatrix<f64>,
     whitened: DMatrix<f64>,
+    /// The states' σ, then one column of `ρ_u`.
+    sigma: DVector<f64>,
+    scratch: DVector<f64>,
     /// Prepared at this gate, its first pass still to come.
     prepared: bool,
     /// The first pass was made (the commit has something to learn from).
@@ -176,17 +175,11 @@ impl Signatures {
         self.time = time;
     }
 
-    /// Drops the evidence of every channel but `c`.
-    pub fn forget_all_but(&mut self, c: usize) {
-        for (other, ((a, b), f)) in
-            self.evidence.iter_mut().zip(&mut self.information).zip(&mut self.fit_information).enumerate()
-        {
-            if other != c {
-                *a = [0.0; KINDS];
-                *b = [0.0; 3];
-                *f = [0.0; 3];
-            }
-        }
+    /// Drops every channel's evidence.
+    pub fn forget_all(&mut self) {
+        self.evidence.iter_mut().for_each(|a| *a = [0.0; KINDS]);
+        self.information.iter_mut().for_each(|b| *b = [0.0; 3]);
+        self.fit_information.iter_mut().for_each(|f| *f = [0.0; 3]);
     }
 
     /// The score of channel `c` where the fault it fits is wiring-sized (a
@@ -229,7 +222,7 @@ impl Supervisor {
         if self.predict_signatures(filter).is_err() {
             self.signature_work.prepared = false;
             self.signatures.effect.fill(0.0);
-            self.signatures.forget_all_but(usize::MAX);
+            self.signatures.forget_all();
             self.signatures.time = f64::NAN;
         }
     }
@@ -252,12 +245,14 @@ impl Supervisor {
             work.offsets = DMatrix::zeros(n, n);
             work.factor = DMatrix::zeros(m, m);
             work.nu = DVector::zeros(m);
-            work.rho = DVector::zeros(m);
-            work.weights = DVector::zeros(m);
-            work.ht_w = DVector::zeros(n);
+            work.rho = DMatrix::zeros(m, KINDS * m);
+            work.gain = DMatrix::zeros(m, KINDS * m);
+            work.spread = DMatrix::zeros(n, KINDS * m);
             work.whitened = DMatrix::zeros(m, KINDS * m);
+            work.sigma = DVector::zeros(n);
+            work.scratch = DVector::zeros(m);
         }
-        let sigma: &mut DVector<f64> = &mut work.ht_w;
+        let sigma: &mut DVector<f64> = &mut work.sigma;
         for i in 0..n {
             sigma[i] = filter.variance(i).max(0.0).sqrt().max(f64::MIN_POSITIVE);
         }
@@ -327,23 +322,30 @@ impl Supervisor {
         for v in work.nu.iter_mut().take(k) {
             *v = v.clamp(-clip, clip);
         }
-        // ρ for every column, whitened (kept for the update below).
-        for column in 0..KINDS * m {
-            let (c, kind) = (column / KINDS, column % KINDS);
-            let regressor = match kind {
-                0 => self.z_offered[c] - self.work.residuals[c] - self.channels[c].prediction_mean,
-                _ => 1.0,
-            };
-            for (i, &r) in work.rows.iter().enumerate() {
-                let mut rho = -row_dot(&work.h, r, &work.effect, column);
-                if r == c && regressor.is_finite() {
-                    rho += regressor;
-                }
-                work.whitened[(i, column)] = rho;
+        // ρ = r·e_c − H·μ⁻ for every column (all rows; the direct term on
+        // the channel's own row where it is available).
+        let n = work.effect.nrows();
+        let columns = KINDS * m;
+        mul_to(work.h.as_slice(), m, m, n, work.effect.as_slice(), n, columns, work.rho.as_mut_slice(), m);
+        work.rho.neg_mut();
+        for c in 0..m {
+            if !work.rows.contains(&c) {
+                continue;
             }
+            let prediction = self.z_offered[c] - self.work.residuals[c] - self.channels[c].prediction_mean;
+            if prediction.is_finite() {
+                work.rho[(c, KINDS * c)] += prediction;
+            }
+            work.rho[(c, KINDS * c + 1)] += 1.0;
         }
-        solve_lower(work.factor.as_slice(), m, k, work.whitened.as_mut_slice(), m, KINDS * m);
         if !flux {
+            // Whitened on the first pass's rows: L⁻¹·ρ_a.
+            for column in 0..KINDS * m {
+                for (i, &r) in work.rows.iter().enumerate() {
+                    work.whitened[(i, column)] = work.rho[(r, column)];
+                }
+            }
+            solve_lower(work.factor.as_slice(), m, k, work.whitened.as_mut_slice(), m, KINDS * m);
             for c in 0..m {
                 if !work.rows.contains(&c) {
                     continue;
@@ -362,61 +364,41 @@ impl Supervisor {
                 }
             }
         }
-        // μ⁺ = μ⁻ + P⁻·H_uᵀ·S_u⁻¹·ρ_u on the rows used.
-        let used: usize = work.rows.iter().filter(|&&r| self.pending.rows[r] == super::RowOutcome::Used).count();
-        let all_used = used == k;
-        if used > 0 && !all_used {
-            // The factor of S on the rows used only, in place of the first pass's.
-            let rows = &self.pending.rows;
-            let used_rows = || work.rows.iter().filter(|&&r| rows[r] == super::RowOutcome::Used).enumerate();
-            for (i, &a) in used_rows() {
-                for (j, &b) in used_rows() {
-                    work.factor[(i, j)] = work.s[(a, b)];
-                }
-            }
-            if cholesky_in_place(work.factor.as_mut_slice(), m, used).is_err() {
-                self.signatures.time = self.work.before.time;
-                self.signatures.effect.copy_from(&work.effect);
-                return;
-            }
-        }
+        // μ⁺ = μ⁻ + P⁻·Hᵀ·G, G = S_u⁻¹·ρ_u on the rows used (zero elsewhere).
+        let rows = &self.pending.rows;
+        let is_used = |r: &&usize| rows[**r] == super::RowOutcome::Used;
+        let used = work.rows.iter().filter(is_used).count();
         if used > 0 {
-            for column in 0..KINDS * m {
-                // ρ on the rows used (from the whitened one when all are: L·ρ̃).
-                let c = column / KINDS;
-                let mut i = 0;
-                for &r in &work.rows {
-                    if self.pending.rows[r] != super::RowOutcome::Used {
-                        continue;
-                    }
-                    let mut rho = -row_dot(&work.h, r, &work.effect, column);
-                    if r == c {
-                        let regressor = match column % KINDS {
-                            0 => self.z_offered[c] - self.work.residuals[c] - self.channels[c].prediction_mean,
-                            _ => 1.0,
-                        };
-                        if regressor.is_finite() {
-                            rho += regressor;
-                        }
-                    }
-                    work.rho[i] = rho;
-                    i += 1;
-                }
-                // S_u⁻¹·ρ_u = L⁻ᵀ·L⁻¹·ρ_u.
-                solve_lower(work.factor.as_slice(), m, used, work.rho.as_mut_slice(), m, 1);
-                solve_lower_transposed(work.factor.as_slice(), m, used, work.rho.as_mut_slice());
-                work.weights.fill(0.0);
-                let mut i = 0;
-                for &r in &work.rows {
-                    if self.pending.rows[r] == super::RowOutcome::Used {
-                        work.weights[r] = work.rho[i];
-                        i += 1;
+            if used < k {
+                // The factor of S on the rows used only, in place of the first pass's.
+                for (i, &a) in work.rows.iter().filter(is_used).enumerate() {
+                    for (j, &b) in work.rows.iter().filter(is_used).enumerate() {
+                        work.factor[(i, j)] = work.s[(a, b)];
                     }
                 }
-                work.h.tr_mul_to(&work.weights, &mut work.ht_w);
-                let mut effect = work.effect.column_mut(column);
-                effect.gemv(1.0, &work.p, &work.ht_w, 1.0);
+                if cholesky_in_place(work.factor.as_mut_slice(), m, used).is_err() {
+                    self.signatures.time = self.work.before.time;
+                    self.signatures.effect.copy_from(&work.effect);
+                    return;
+                }
             }
+            work.gain.fill(0.0);
+            for column in 0..KINDS * m {
+                let rho = &mut work.scratch;
+                for (i, &r) in work.rows.iter().filter(is_used).enumerate() {
+                    rho[i] = work.rho[(r, column)];
+                }
+                solve_lower(work.factor.as_slice(), m, used, rho.as_mut_slice(), m, 1);
+                solve_lower_transposed(work.factor.as_slice(), m, used, rho.as_mut_slice());
+                for (i, &r) in work.rows.iter().filter(is_used).enumerate() {
+                    work.gain[(r, column)] = rho[i];
+                }
+            }
+            // Hᵀ·G, then P⁻·(Hᵀ·G) added as P⁻ᵀ·(Hᵀ·G) (P⁻ is symmetric).
+            work.spread.fill(0.0);
+            let (h, gain, spread) = (work.h.as_slice(), work.gain.as_slice(), work.spread.as_mut_slice());
+            tr_mul_add(h, m, n, m, gain, m, columns, spread, n);
+            tr_mul_add(work.p.as_slice(), n, n, n, work.spread.as_slice(), n, columns, work.effect.as_mut_slice(), n);
         }
         self.signatures.effect.copy_from(&work.effect);
         self.signatures.time = self.work.before.time;

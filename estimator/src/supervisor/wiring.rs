@@ -63,6 +63,10 @@ pub const SCALE_TOLERANCE: f64 = 0.5;
 /// wiring (in σ of the innovation): gravity left in is far beyond it.
 pub const BIAS_TOLERANCE: f64 = 1.0;
 
+/// How long a channel named by its signature stays out before it is tried
+/// again, in consistency windows.
+const WIRING_HOLD_WINDOWS: usize = 5;
+
 /// The memory of the fit, of the recent score and of a verdict's wait: a
 /// tenth of the scores' `memory` (samples), at least two.
 fn fit_memory(memory: usize) -> usize {
@@ -103,7 +107,8 @@ impl Supervisor {
         let reacquire_after = self.settings.reacquire_after;
         let work = &mut self.work;
         let signatures = &self.signatures;
-        let wiring_signatures = self.settings.wiring_signatures;
+        let (wiring_signatures, left_out) = (self.settings.wiring_signatures, self.settings.wiring_leaves_out);
+        let hold = WIRING_HOLD_WINDOWS * memory;
         let mut available = 0;
         for (c, channel) in self.channels.iter_mut().enumerate() {
             let row = self.pending.rows[c];
@@ -128,13 +133,21 @@ impl Supervisor {
                 }
             }
             let own = channel.wiring_score();
-            let score = if wiring_signatures {
-                own.max(signatures.wiring_score(c, work.first_variances[c].sqrt()))
-            } else {
-                own
-            };
+            // A channel left out adds nothing to its signature's evidence, so
+            // its score would stand still: its own probe's scores decide
+            // whether it is taken back.
+            let followed = wiring_signatures && !(channel.inconsistent && left_out);
+            let score =
+                if followed { own.max(signatures.wiring_score(c, work.first_variances[c].sqrt())) } else { own };
             work.wiring_scores[c] = score;
-            if channel.inconsistent && score < threshold / 2.0 {
+            // Left out, a channel that an unknown input follows has a weak
+            // probe (its prediction without it is wide): a quiet probe does
+            // not say it is right again. Where signatures are followed it is
+            // tried again after a hold, its signature's evidence fresh: a
+            // mistake that persists is named again within a tenth of a second
+            // (S3), a passing fault is over.
+            let held = wiring_signatures && left_out && (channel.bad_run as usize) < hold;
+            if channel.inconsistent && score < threshold / 2.0 && !held {
                 channel.inconsistent = false;
             }
             channel.wiring_run = if score > threshold { channel.wiring_run.saturating_add(1) } else { 0 };
@@ -169,8 +182,9 @@ impl Supervisor {
             channel.inconsistent = true;
             // The others' signatures were scored against innovations this
             // channel's mistake was in: they start again (a neighbour's
-            // signature looks much like the culprit's).
-            self.signatures.forget_all_but(c);
+            // signature looks much like the culprit's), and so does its own,
+            // for when it is taken back.
+            self.signatures.forget_all();
             for (other, channel) in self.channels.iter_mut().enumerate() {
                 if other != c && !channel.inconsistent {
                     channel.wiring_run = 0;
