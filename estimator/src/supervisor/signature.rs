@@ -6,8 +6,8 @@
 //! nothing. The mistake shows only in the other channels (the bogie frame
 //! above it), and there only through the filter's dynamics, a few samples
 //! later. A test that knows those dynamics sees it: the generalised
-//! likelihood ratio of an additive fault `β·r` on one channel (Willsky and
-//! Jones; docs/references.md), with the regressors `r` the channel's
+//! likelihood ratio of an additive fault `β·r` on one channel
+//! ([WillskyJones1976], docs/references.md), with the regressors `r` the channel's
 //! prediction about its mean (a scale: a flipped sign, a unit) and 1 (an
 //! offset: gravity left in).
 //!
@@ -91,11 +91,14 @@ pub(super) struct SignatureWork {
     pub h: DMatrix<f64>,
     /// `P⁻` (`n × n`).
     pub p: DMatrix<f64>,
-    /// The first pass's `S` (`m × m`, on its rows) and rows.
+    /// `S = H·P⁻·Hᵀ + R` (`m × m`), and the first pass's rows.
     pub s: DMatrix<f64>,
     pub rows: Vec<usize>,
-    /// Scratch: the probe offsets (`n × n`), a Cholesky factor, vectors.
+    /// Scratch: the probe offsets (`n × n`), `Hᵀ` and `P⁻·Hᵀ` (`n × m`), a
+    /// Cholesky factor, vectors.
     offsets: DMatrix<f64>,
+    ht: DMatrix<f64>,
+    pht: DMatrix<f64>,
     factor: DMatrix<f64>,
     nu: DVector<f64>,
     /// `ρ` (`m × 2m`), `G` (`m × 2m`), `Hᵀ·G` (`n × 2m`), `L⁻¹·ρ_a`.
@@ -114,7 +117,7 @@ pub(super) struct SignatureWork {
 
 impl SignatureWork {
     /// At the first pass of a gate the signatures were prepared for: keeps
-    /// its rows and `S`.
+    /// its rows.
     pub fn keep_first_pass(&mut self, innovation: &Innovation) {
         if !self.prepared {
             return;
@@ -122,11 +125,6 @@ impl SignatureWork {
         self.prepared = false;
         self.rows.clear();
         self.rows.extend_from_slice(innovation.rows());
-        for &a in &self.rows {
-            for &b in &self.rows {
-                self.s[(a, b)] = innovation.covariance()[(a, b)];
-            }
-        }
         self.ready = true;
     }
 }
@@ -243,6 +241,8 @@ impl Supervisor {
             work.s = DMatrix::zeros(m, m);
             work.rows = Vec::with_capacity(m);
             work.offsets = DMatrix::zeros(n, n);
+            work.ht = DMatrix::zeros(n, m);
+            work.pht = DMatrix::zeros(n, m);
             work.factor = DMatrix::zeros(m, m);
             work.nu = DVector::zeros(m);
             work.rho = DMatrix::zeros(m, KINDS * m);
@@ -252,9 +252,13 @@ impl Supervisor {
             work.sigma = DVector::zeros(n);
             work.scratch = DVector::zeros(m);
         }
+        // Each state's scale: its σ, or, where the filter is certain of it
+        // (a state no noise reaches), its size.
         let sigma: &mut DVector<f64> = &mut work.sigma;
+        let mean = filter.mean();
         for i in 0..n {
-            sigma[i] = filter.variance(i).max(0.0).sqrt().max(f64::MIN_POSITIVE);
+            let std = filter.variance(i).max(0.0).sqrt();
+            sigma[i] = if std > 0.0 && std.is_finite() { std } else { mean[i].abs().max(1.0) };
         }
         // The prediction: each effect column scaled to a small offset, F·δ, scaled back.
         work.effect.copy_from(&self.signatures.effect);
@@ -287,6 +291,15 @@ impl Supervisor {
             work.h.column_mut(i).scale_mut(scale);
         }
         filter.write_covariance(&mut work.p);
+        // S = H·P⁻·Hᵀ + R of the linearised model, so that the signatures'
+        // gain is the Kalman gain of the very `F`, `H` they are propagated
+        // with (with the filter's own `S` the two disagree where the gain is
+        // high, and the signatures' recursion can diverge: S3 with its
+        // deflection transducers).
+        work.h.transpose_to(&mut work.ht);
+        mul_to(work.p.as_slice(), n, n, n, work.ht.as_slice(), n, m, work.pht.as_mut_slice(), n);
+        mul_to(work.h.as_slice(), m, m, n, work.pht.as_slice(), n, m, work.s.as_mut_slice(), m);
+        work.s += filter.noise().r();
         work.prepared = true;
         Ok(())
     }
@@ -402,5 +415,12 @@ impl Supervisor {
         }
         self.signatures.effect.copy_from(&work.effect);
         self.signatures.time = self.work.before.time;
+        let sums = self.signatures.evidence.iter().flatten().chain(self.signatures.information.iter().flatten());
+        if sums.chain(self.signatures.effect.iter()).any(|v| !v.is_finite()) {
+            // A linearisation gone wrong (a model far from linear over a
+            // sample): the signatures start again rather than carry it.
+            self.signatures.effect.fill(0.0);
+            self.signatures.forget_all();
+        }
     }
 }
