@@ -89,8 +89,9 @@ pub struct SupervisorSettings {
     /// Whether the wiring checks also follow each channel's fault through the
     /// filter's dynamics (`signature.rs`): where an unknown input follows a
     /// channel, its mistake shows only in the other channels, and only this
-    /// test sees it there. It costs two model transitions per channel and
-    /// sample. Off by default.
+    /// test sees it there. Meant with `wiring_leaves_out`. It costs two model
+    /// transitions per channel and sample, and products with `P` (S3: the
+    /// supervised step more than twice as long). Off by default.
     pub wiring_signatures: bool,
 }
 

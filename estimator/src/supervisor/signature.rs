@@ -12,16 +12,20 @@
 //! offset: gravity left in).
 //!
 //! For each channel and regressor the fault's *signature* is followed: its
-//! effect `μ` on the mean, through the filter's own gain. With `F` and `H`
-//! the model linearised at the mean (differences of the model,
-//! [`StateEstimator::transition_differences`]), `P⁻` and the first pass's
-//! `S` on the available rows `a`, and the rows used `u`:
+//! effect `μ` on the mean. With `F` and `H` the model linearised at the mean
+//! (differences of the model, [`StateEstimator::transition_differences`]),
+//! `P⁻`, `S = H·P⁻·Hᵀ + R` on the first pass's rows `a`, and the rows used
+//! `u`:
 //!
 //! ```text
 //! μ⁻ = F·μ⁺                                  (the prediction)
 //! ρ  = r·e_c − H·μ⁻                          (its effect on the innovations, rows a)
 //! μ⁺ = μ⁻ + P⁻·H_uᵀ·S_u⁻¹·ρ_u                (the update's gain)
 //! ```
+//!
+//! The gain is that of the linearised model, not the filter's own: with the
+//! filter's `S` and these `F`, `H` the recursion need not be stable, and it
+//! diverged on S3 with deflection transducers (high gains).
 //!
 //! The evidence forgets with `λ = 1 − 1/window`: `a = Σ λʲ·ρ̃ᵀν̃` and
 //! `B = Σ λ²ʲ·ρ̃ᵀρ̃` (whitened by the Cholesky factor of `S`), and the score
@@ -106,7 +110,8 @@ pub(super) struct SignatureWork {
     gain: DMatrix<f64>,
     spread: DMatrix<f64>,
     whitened: DMatrix<f64>,
-    /// The states' σ, then one column of `ρ_u`.
+    /// The states' scales (`σ`, or the size of a state the filter is certain
+    /// of), and one column of `ρ_u`.
     sigma: DVector<f64>,
     scratch: DVector<f64>,
     /// Prepared at this gate, its first pass still to come.

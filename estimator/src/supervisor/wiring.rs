@@ -32,18 +32,21 @@
 //! which channel is wrong ([`SupervisorSettings::wiring_leaves_out`]):
 //!
 //! * **Left out**, where the channels contradict each other directly (S4's
-//!   four telegrams of one position): the worst channel, while at most a
-//!   third of the available ones (one, with fewer than six) pass and at
-//!   least three are available. Its row outcome is
+//!   four telegrams of one position), or where the fault signatures say
+//!   which channel's mistake the others show (`signature.rs`): the worst
+//!   channel, while at most a third of the available ones (one, with fewer
+//!   than six) pass and at least three are available. Its row outcome is
 //!   [`RowOutcome::Inconsistent`](super::RowOutcome::Inconsistent); it is
-//!   still predicted before each update and scored.
-//! * **Named** (the default), where an unknown input follows a channel (S2's
-//!   and S3's axle boxes, each driven by its own wheel force: a flipped one
-//!   drags its force along, and the bogie frame's channels show the
-//!   mistake): every channel that passes is named in the log and kept in
-//!   the updates, and the filter is inconsistent (`filter_healthy` false)
-//!   while one is. Leaving out the worst would blame the channel showing the
-//!   mistake, not the one making it.
+//!   still predicted before each update and scored. A channel named by its
+//!   signature stays out for five windows (`WIRING_HOLD_WINDOWS`), then is tried
+//!   again.
+//! * **Named** (the default), where an unknown input follows a channel and
+//!   no signatures are followed (S2's and S3's axle boxes, each driven by its
+//!   own wheel force: a flipped one drags its force along, and the bogie frame's
+//!   channels show the mistake): every channel that passes is named in the
+//!   log and kept in the updates, and the filter is inconsistent
+//!   (`filter_healthy` false) while one is. Leaving out the worst would
+//!   blame the channel showing the mistake, not the one making it.
 //!
 //! The fit of `ν = (k − 1)·(ẑ − z̄) + b` behind the scores says what is
 //! likely wrong ([`Channel::wiring_fit`]).
@@ -109,6 +112,10 @@ impl Supervisor {
         let signatures = &self.signatures;
         let (wiring_signatures, left_out) = (self.settings.wiring_signatures, self.settings.wiring_leaves_out);
         let hold = WIRING_HOLD_WINDOWS * memory;
+        // The signatures' test assumes the model right: where the filter's
+        // own innovations say it is not (S3 with deflection transducers, whose
+        // mismatch the car's model does not cover), its verdicts mean nothing.
+        let consistent = self.window.consistent();
         let mut available = 0;
         for (c, channel) in self.channels.iter_mut().enumerate() {
             let row = self.pending.rows[c];
@@ -136,7 +143,7 @@ impl Supervisor {
             // A channel left out adds nothing to its signature's evidence, so
             // its score would stand still: its own probe's scores decide
             // whether it is taken back.
-            let followed = wiring_signatures && !(channel.inconsistent && left_out);
+            let followed = wiring_signatures && consistent && !(channel.inconsistent && left_out);
             let score =
                 if followed { own.max(signatures.wiring_score(c, work.first_variances[c].sqrt())) } else { own };
             work.wiring_scores[c] = score;
@@ -161,6 +168,11 @@ impl Supervisor {
             for channel in &mut self.channels {
                 channel.inconsistent |= channel.wiring_run >= settled;
             }
+            return;
+        }
+        // Where signatures are followed, no channel is left out while the
+        // filter is inconsistent: its model, not a channel, is then in doubt.
+        if wiring_signatures && !consistent {
             return;
         }
         // With two channels the data cannot say which one is wrong (S1: a

@@ -461,8 +461,6 @@ pub(super) fn descriptor() -> Descriptor {
         supervision: SupervisorSettings {
             min_process_noise_scale: 1.0,
             wiring_sigmas: 8.0,
-            wiring_leaves_out: true,
-            wiring_signatures: true,
             show_single_row_jumps: true,
             ..SupervisorSettings::default()
         },
