@@ -60,6 +60,19 @@ pub(crate) fn solve_lower(l: &[f64], ldl: usize, n: usize, b: &mut [f64], ldb: u
     true
 }
 
+/// Solves `Lᵀ·x = b` in place for a lower-triangular `L` (`n×n`, leading
+/// dimension `ldl`) and one right-hand side: with [`solve_lower`], `A⁻¹·b`
+/// for `A = L·Lᵀ`.
+pub(crate) fn solve_lower_transposed(l: &[f64], ldl: usize, n: usize, b: &mut [f64]) {
+    for j in (0..n).rev() {
+        let mut v = b[j];
+        for i in j + 1..n {
+            v -= l[j * ldl + i] * b[i];
+        }
+        b[j] = v / l[j * ldl + j];
+    }
+}
+
 /// Solves `X·Lᵀ = B` in place for a lower-triangular `L` (`n×n`, leading
 /// dimension `ldl`) and `B` of `rows × n` (leading dimension `ldb ≥ rows`),
 /// column by column, each a linear combination of the columns before it

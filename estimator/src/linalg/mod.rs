@@ -13,7 +13,9 @@ mod lanes;
 mod symmetric_eigen;
 mod tria;
 
-pub(crate) use cholesky::{cholesky_in_place, solve_lower, solve_right_lower, solve_right_lower_transposed};
+pub(crate) use cholesky::{
+    cholesky_in_place, solve_lower, solve_lower_transposed, solve_right_lower, solve_right_lower_transposed,
+};
 pub(crate) use dispatch::read_environment;
 pub use dispatch::{kernels_available, kernels_in_use, with_portable_kernels, Kernels, PORTABLE_VARIABLE};
 #[cfg(target_arch = "x86_64")]

@@ -44,23 +44,11 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::wiring::{BIAS_TOLERANCE, SCALE_TOLERANCE};
+use super::wiring::{forgetting, BIAS_TOLERANCE, SCALE_TOLERANCE};
 use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{Innovation, StateEstimator};
-use crate::linalg::{cholesky_in_place, mul_to, solve_lower, tr_mul_add};
-
-/// Solves `Lᵀ·x = b` in place (`L` lower-triangular, `n × n` in the top
-/// left of a matrix with leading dimension `ld`).
-fn solve_lower_transposed(l: &[f64], ld: usize, n: usize, b: &mut [f64]) {
-    for j in (0..n).rev() {
-        let mut v = b[j];
-        for i in j + 1..n {
-            v -= l[j * ld + i] * b[i];
-        }
-        b[j] = v / l[j * ld + j];
-    }
-}
+use crate::linalg::{cholesky_in_place, mul_to, solve_lower, solve_lower_transposed, tr_mul_add};
 
 /// The offset of a difference, relative to each state's σ: small against
 /// the models' kinks, large against rounding.
@@ -111,8 +99,9 @@ pub(super) struct SignatureWork {
     spread: DMatrix<f64>,
     whitened: DMatrix<f64>,
     /// The states' scales (`σ`, or the size of a state the filter is certain
-    /// of), and one column of `ρ_u`.
+    /// of), each effect column's size in them, and one column of `ρ_u`.
     sigma: DVector<f64>,
+    sizes: DVector<f64>,
     scratch: DVector<f64>,
     /// Prepared at this gate, its first pass still to come.
     prepared: bool,
@@ -121,6 +110,20 @@ pub(super) struct SignatureWork {
 }
 
 impl SignatureWork {
+    /// The Cholesky factor of `S` on the first pass's rows that `keep`,
+    /// in the top-left corner of `factor`; `false` where it fails.
+    fn factor_s_on(&mut self, keep: impl Fn(usize) -> bool) -> bool {
+        let m = self.factor.nrows();
+        let mut count = 0;
+        for (i, &a) in self.rows.iter().filter(|&&r| keep(r)).enumerate() {
+            for (j, &b) in self.rows.iter().filter(|&&r| keep(r)).enumerate() {
+                self.factor[(i, j)] = self.s[(a, b)];
+            }
+            count = i + 1;
+        }
+        cholesky_in_place(self.factor.as_mut_slice(), m, count).is_ok()
+    }
+
     /// At the first pass of a gate the signatures were prepared for: keeps
     /// its rows.
     pub fn keep_first_pass(&mut self, innovation: &Innovation) {
@@ -199,7 +202,7 @@ impl Signatures {
     }
 
     /// The score of channel `c` and the fit behind it: `√(aᵀB⁻¹a)`, and `β̂`.
-    pub fn score(&self, c: usize) -> (f64, [f64; KINDS]) {
+    fn score(&self, c: usize) -> (f64, [f64; KINDS]) {
         let (Some(a), Some(b), Some(f)) = (self.evidence.get(c), self.information.get(c), self.fit_information.get(c))
         else {
             return (0.0, [0.0; KINDS]);
@@ -255,6 +258,7 @@ impl Supervisor {
             work.spread = DMatrix::zeros(n, KINDS * m);
             work.whitened = DMatrix::zeros(m, KINDS * m);
             work.sigma = DVector::zeros(n);
+            work.sizes = DVector::zeros(KINDS * m);
             work.scratch = DVector::zeros(m);
         }
         // Each state's scale: its σ, or, where the filter is certain of it
@@ -269,18 +273,17 @@ impl Supervisor {
         work.effect.copy_from(&self.signatures.effect);
         let dt = filter.time() - self.signatures.time;
         if dt > 0.0 {
-            for mut column in work.effect.column_iter_mut() {
-                let size = column.iter().zip(sigma.iter()).fold(0.0_f64, |s, (v, g)| s.max(v.abs() / g));
-                if size == 0.0 || !size.is_finite() {
+            for (mut column, size) in work.effect.column_iter_mut().zip(work.sizes.iter_mut()) {
+                *size = column.iter().zip(sigma.iter()).fold(0.0_f64, |s, (v, g)| s.max(v.abs() / g));
+                if *size == 0.0 || !size.is_finite() {
                     column.fill(0.0);
                     continue;
                 }
-                column *= PROBE / size;
+                column *= PROBE / *size;
             }
             let input = self.work.before.input.as_slice();
             filter.transition_differences(input, dt, &mut work.effect)?;
-            for (mut column, before) in work.effect.column_iter_mut().zip(self.signatures.effect.column_iter()) {
-                let size = before.iter().zip(sigma.iter()).fold(0.0_f64, |s, (v, g)| s.max(v.abs() / g));
+            for (mut column, &size) in work.effect.column_iter_mut().zip(work.sizes.iter()) {
                 if size > 0.0 && size.is_finite() {
                     column *= size / PROBE;
                 }
@@ -313,24 +316,30 @@ impl Supervisor {
     /// evidence (unless the belief is in flux), and their update through the
     /// rows used.
     pub(super) fn commit_signatures(&mut self, flux: bool) {
-        let work = &mut self.signature_work;
-        if !work.ready {
+        if !std::mem::take(&mut self.signature_work.ready) {
             return;
         }
-        work.ready = false;
+        // Where `S` cannot be factorised, the effects stay as predicted.
+        self.learn_and_update_signatures(flux);
+        self.signatures.effect.copy_from(&self.signature_work.effect);
+        self.signatures.time = self.work.before.time;
+        let sums = self.signatures.evidence.iter().flatten().chain(self.signatures.information.iter().flatten());
+        if sums.chain(self.signatures.effect.iter()).any(|v| !v.is_finite()) {
+            // A linearisation gone wrong (a model far from linear over a
+            // sample): the signatures start again rather than carry it.
+            self.signatures.effect.fill(0.0);
+            self.signatures.forget_all();
+        }
+    }
+
+    /// The evidence of this sample (unless `flux`) and `μ⁺` into the work's effects.
+    fn learn_and_update_signatures(&mut self, flux: bool) {
+        let work = &mut self.signature_work;
         let m = self.channels.len();
         let k = work.rows.len();
         let clip = self.thresholds.row.min(1e6).sqrt();
-        let lambda = 1.0 - 1.0 / self.settings.window.max(2) as f64;
-        // The Cholesky factor of S on the first pass's rows, in the top-left k × k.
-        for (i, &a) in work.rows.iter().enumerate() {
-            for (j, &b) in work.rows.iter().enumerate() {
-                work.factor[(i, j)] = work.s[(a, b)];
-            }
-        }
-        if k == 0 || cholesky_in_place(work.factor.as_mut_slice(), m, k).is_err() {
-            self.signatures.time = self.work.before.time;
-            self.signatures.effect.copy_from(&work.effect);
+        let lambda = forgetting(self.settings.window);
+        if k == 0 || !work.factor_s_on(|_| true) {
             return;
         }
         for (i, &r) in work.rows.iter().enumerate() {
@@ -387,18 +396,9 @@ impl Supervisor {
         let is_used = |r: &&usize| rows[**r] == super::RowOutcome::Used;
         let used = work.rows.iter().filter(is_used).count();
         if used > 0 {
-            if used < k {
-                // The factor of S on the rows used only, in place of the first pass's.
-                for (i, &a) in work.rows.iter().filter(is_used).enumerate() {
-                    for (j, &b) in work.rows.iter().filter(is_used).enumerate() {
-                        work.factor[(i, j)] = work.s[(a, b)];
-                    }
-                }
-                if cholesky_in_place(work.factor.as_mut_slice(), m, used).is_err() {
-                    self.signatures.time = self.work.before.time;
-                    self.signatures.effect.copy_from(&work.effect);
-                    return;
-                }
+            // The factor of S on the rows used only, in place of the first pass's.
+            if used < k && !work.factor_s_on(|r| rows[r] == super::RowOutcome::Used) {
+                return;
             }
             work.gain.fill(0.0);
             for column in 0..KINDS * m {
@@ -417,15 +417,6 @@ impl Supervisor {
             let (h, gain, spread) = (work.h.as_slice(), work.gain.as_slice(), work.spread.as_mut_slice());
             tr_mul_add(h, m, n, m, gain, m, columns, spread, n);
             tr_mul_add(work.p.as_slice(), n, n, n, work.spread.as_slice(), n, columns, work.effect.as_mut_slice(), n);
-        }
-        self.signatures.effect.copy_from(&work.effect);
-        self.signatures.time = self.work.before.time;
-        let sums = self.signatures.evidence.iter().flatten().chain(self.signatures.information.iter().flatten());
-        if sums.chain(self.signatures.effect.iter()).any(|v| !v.is_finite()) {
-            // A linearisation gone wrong (a model far from linear over a
-            // sample): the signatures start again rather than carry it.
-            self.signatures.effect.fill(0.0);
-            self.signatures.forget_all();
         }
     }
 }

@@ -77,7 +77,7 @@ fn fit_memory(memory: usize) -> usize {
 }
 
 /// The forgetting factor `λ` of sums with a memory of `memory` samples.
-fn forgetting(memory: usize) -> f64 {
+pub(super) fn forgetting(memory: usize) -> f64 {
     1.0 - 1.0 / memory.max(2) as f64
 }
 
