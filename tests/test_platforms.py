@@ -35,6 +35,7 @@ import os
 import shutil
 import subprocess
 import zipfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -89,7 +90,7 @@ def platform(request) -> Platform:
 
 
 @pytest.fixture(scope="session")
-def win64(tmp_path_factory) -> Platform:
+def win64(tmp_path_factory) -> Iterator[Platform]:
     """The master built by mingw-w64 beside the ProcessPrng stub, run by wine in a prefix of
     its own, the stub preferred to wine's DLL."""
     out = tmp_path_factory.mktemp("win64")
@@ -101,7 +102,12 @@ def win64(tmp_path_factory) -> Platform:
     prefix.mkdir()
     env = dict(os.environ, WINEPREFIX=str(prefix), WINEDEBUG="-all", WINEDLLOVERRIDES="bcryptprimitives=n,b")
     subprocess.run(["wineboot", "--init"], env=env, check=True, capture_output=True, timeout=300)
-    return Platform("win64", ["wine", str(master)], env, dict(os.environ))
+    # One wineserver for the whole session: by default it exits a few seconds after its last
+    # client, and a wine started while it is exiting may fail before running anything (once
+    # on CI: exit status 1, nothing on stderr).
+    subprocess.run(["wineserver", "--persistent"], env=env, check=True, timeout=60)
+    yield Platform("win64", ["wine", str(master)], env, dict(os.environ))
+    subprocess.run(["wineserver", "--kill"], env=env, timeout=60)
 
 
 def aarch64_missing() -> list[str]:
@@ -151,13 +157,21 @@ def run_both(
     )
     assert native.returncode == 0, native.stderr.decode()[-2000:]
     other = directory / f"{platform.name}.txt"
-    emulated = subprocess.run(
-        [*platform.command, str(platform.binary(unzipped, identifier)), *common, str(other)],
-        env=platform.environment,
-        capture_output=True,
-        timeout=600,
-    )
-    assert emulated.returncode == 0, emulated.stderr.decode()[-2000:]
+    # Its messages go to a file, not a pipe: the processes wine starts beside the master
+    # (services, the device manager) live on with the session's wineserver and would hold
+    # a pipe open.
+    messages = directory / f"{platform.name}.stderr"
+    with messages.open("wb") as sink:
+        emulated = subprocess.run(
+            [*platform.command, str(platform.binary(unzipped, identifier)), *common, str(other)],
+            env=platform.environment,
+            stdout=sink,
+            stderr=sink,
+            timeout=600,
+        )
+    ran = other.read_text()[-500:] if other.exists() else "(no output file)"
+    said = messages.read_text(errors="replace")[-2000:]
+    assert emulated.returncode == 0, f"{said}\nthe master's output ended with:\n{ran}"
     return reference.read_text(), other.read_text()
 
 

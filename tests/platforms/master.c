@@ -157,7 +157,10 @@ int main(int argc, char **argv) {
             c = Instantiate(strtok(NULL, " \n"), 1, argv[2], argv[3], &callbacks, 0, 1);
             failed = 0;
             fprintf(out, " %s\n", c ? "ok" : "null");
-            if (!c) return 1;
+            if (!c) {
+                fprintf(stderr, "master: fmi2Instantiate returned NULL\n");
+                return 1;
+            }
             continue;
         } else if (!strcmp(command, "setup")) {
             s = SetupExperiment(c, 0, 0.0, from_bits(strtok(NULL, " \n")), 0, 0.0);
