@@ -295,6 +295,10 @@ impl Supervisor {
     fn update_rival(&mut self, filter: &mut dyn StateEstimator, disputed: Option<usize>) -> Result<bool, FilterError> {
         let (clip, row) = (self.thresholds.adaptation_clip, self.thresholds.row);
         let gate_clip = row.min(1e6);
+        // Scored on the rows the main belief is scored on: without the
+        // disputed one even where the rival still takes it in (before the
+        // filter has settled).
+        let unscored = self.rival.disputed();
         let work = &mut self.work;
         filter.snapshot_into(&mut work.alternative);
         work.z_hypothesis.copy_from_slice(&work.z_gated);
@@ -307,7 +311,7 @@ impl Supervisor {
         }
         let innovation = filter.innovation();
         let mut clipped = 0.0;
-        work.rival_score = score(innovation, clip, gate_clip, None, &mut clipped);
+        work.rival_score = score(innovation, clip, gate_clip, unscored, &mut clipped);
         work.rival_entry = WindowEntry { clipped_ratios: clipped, rows: innovation.rows_used() };
         work.rival_rows.copy_from_slice(&self.pending.rows);
         if let Some(r) = disputed.filter(|&r| work.z_gated[r].is_finite()) {
