@@ -3,7 +3,8 @@
 //! kind, on linear-Gaussian models where the truth is the model:
 //!
 //! * a true jump of the state is never rejected, whether one row sees it or
-//!   several agree on it, and it is followed;
+//!   several agree on it, and it is followed; it opens only the states its
+//!   failing rows see;
 //! * a spike that the other rows contradict is rejected at its sample;
 //! * a spike no other row can contradict is taken as a jump, and its review
 //!   at the next sample retracts it: it counts as rejected, and the belief is
@@ -109,6 +110,30 @@ fn a_true_jump_several_rows_agree_on_is_never_rejected_and_is_followed() {
         }
         assert_eq!((s.rejected(), s.retracted_jumps(), s.reacquisitions()), (0, 0, 0), "{kind}");
         assert!(s.jumps() >= 1, "{kind}");
+    }
+}
+
+#[test]
+fn a_jump_opens_only_the_states_its_failing_rows_see() {
+    // Rows 0 and 1 fail on the first state's jump; the second state, seen by
+    // row 2 alone, which passes, keeps its σ: opened, row 2 would take it over.
+    let case = redundant(300, 3, Some(150));
+    for kind in FilterKind::ALL {
+        let mut f = filter_for(kind, case.model.clone(), case.q.clone(), case.r.clone(), &case.prior);
+        let mut s = Supervisor::new(adaptive(), 3).unwrap();
+        let (mut before, mut jumped_before) = (f64::NAN, f64::NAN);
+        for (k, z) in case.measurements.iter().enumerate().take(151) {
+            let outcome = step(f.as_mut(), &mut s, &[0.0], &[0.0], z);
+            if k == 149 {
+                (before, jumped_before) = (f.variance(1), f.variance(0));
+            }
+            if k == 150 {
+                assert!(outcome.jump > 0.0, "{kind}: {outcome:?}");
+                let (after, jumped) = (f.variance(1), f.variance(0));
+                assert!((after / before - 1.0).abs() < 0.01, "{kind}: σ² of the unseen state {before} → {after}");
+                assert!(jumped > 1.5 * jumped_before, "{kind}: the jumped state's σ² {jumped_before} → {jumped}");
+            }
+        }
     }
 }
 

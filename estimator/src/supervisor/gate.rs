@@ -28,6 +28,7 @@ use super::settings::SupervisorSettings;
 use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{Snapshot, StateEstimator};
+use nalgebra::DMatrix;
 
 /// The gate's thresholds on normalised innovations, from the settings.
 #[derive(Debug, Clone)]
@@ -97,6 +98,12 @@ pub(super) struct Workspace {
     pub unexplained: Vec<bool>,
     /// `z` of the fault hypothesis.
     pub z_hypothesis: Vec<f64>,
+    /// The jump states the failing rows see, the states a jump opens (`jump.rs`).
+    pub jump_open: Vec<bool>,
+    /// Scratch of their selection: a probe offset per state (`n × n`) and
+    /// what it does to each row (`m × n`). Sized at the first jump.
+    pub jump_offsets: DMatrix<f64>,
+    pub jump_effects: DMatrix<f64>,
     /// The belief of the fault hypothesis of a jump taken at this sample.
     pub hypothesis: Snapshot,
     /// The belief of the jump hypothesis of a jump taken at this sample.
@@ -140,6 +147,9 @@ impl Workspace {
             explained: vec![false; m],
             unexplained: vec![false; m],
             z_hypothesis: vec![f64::NAN; m],
+            jump_open: Vec::new(),
+            jump_offsets: DMatrix::zeros(0, 0),
+            jump_effects: DMatrix::zeros(0, 0),
             hypothesis: empty_snapshot(),
             jumped: empty_snapshot(),
             alternative: empty_snapshot(),

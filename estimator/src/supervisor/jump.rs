@@ -8,7 +8,7 @@
 //!
 //! * **Explained by a jump.** Adding process noise `c·Q` to `P`, in the
 //!   states of the unknown inputs ([`Supervisor::with_jump_states`]; all by
-//!   default), raises the innovation variance of row `i` by `c·Gᵢ`,
+//!   default) that a failing row sees, raises the innovation variance of row `i` by `c·Gᵢ`,
 //!   `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found from one probe update with `P + Q`. A failing row is explained when some
 //!   `c ≤ implausible_sigmas²` brings its innovation to one σ; a row no jump
 //!   of the unknown inputs reaches (`Gᵢ ≈ 0`: in S1 the acceleration of the
@@ -46,6 +46,13 @@ use super::outcome::RowOutcome;
 use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{FilterKind, Snapshot, StateEstimator};
+use nalgebra::DMatrix;
+
+/// A jump state's probe offset, in its σ.
+const PROBE: f64 = 1e-3;
+/// A row sees a jump state whose probe moves it by more than this share of
+/// what the row's most visible jump state's probe does (not rounding).
+const SEEN: f64 = 1e-6;
 
 /// The jump taken at the last committed sample, under review at the next.
 #[derive(Debug, Clone)]
@@ -92,10 +99,13 @@ impl Supervisor {
         failing: impl Fn(usize, f64) -> bool,
     ) -> Result<bool, FilterError> {
         let limit = self.settings.implausible_sigmas * self.settings.implausible_sigmas;
-        // The probe: G from the innovation variances with P + Q.
         filter.restore(&self.work.before)?;
+        if !self.open_seen_jump_states(filter, &failing)? {
+            return Ok(false);
+        }
+        // The probe: G from the innovation variances with P + Q.
         let probed = filter
-            .add_process_noise(1.0, &self.jump_states)
+            .add_process_noise(1.0, &self.work.jump_open)
             .and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
         if probed.is_err() {
             filter.restore(&self.work.before)?;
@@ -160,7 +170,7 @@ impl Supervisor {
         for _ in 0..2 {
             filter.restore(&self.work.before)?;
             let jumped = filter
-                .add_process_noise(factor, &self.jump_states)
+                .add_process_noise(factor, &self.work.jump_open)
                 .and_then(|()| filter.update(&self.work.z_gated).map(|_| ()));
             if jumped.is_err() {
                 filter.restore(&self.work.before)?;
@@ -225,6 +235,48 @@ impl Supervisor {
         Ok(true)
     }
 
+    /// Marks in `work.jump_open` the jump states that a failing row (not
+    /// refuted) sees, its observation moving with them at the belief before
+    /// the gate; false if there are none. A jump explains the rows that fail,
+    /// so it opens what they see and nothing else: a jump state no failing row
+    /// sees, opened, is taken by the rows that pass for as long as the change
+    /// rings (S2's weld on one wheel opened the other wheels' forces too, and
+    /// through them the car's bounce was some 100 N off for half a second).
+    fn open_seen_jump_states(
+        &mut self,
+        filter: &mut dyn StateEstimator,
+        failing: &impl Fn(usize, f64) -> bool,
+    ) -> Result<bool, FilterError> {
+        let (n, m) = (filter.state_dim(), self.work.z_gated.len());
+        let work = &mut self.work;
+        if work.jump_open.len() != n {
+            work.jump_open = vec![false; n];
+            work.jump_offsets = DMatrix::zeros(n, n);
+            work.jump_effects = DMatrix::zeros(m, n);
+        }
+        work.jump_offsets.fill(0.0);
+        for i in 0..n {
+            if self.jump_states.get(i).copied().unwrap_or(true) {
+                let std = filter.variance(i).max(0.0).sqrt();
+                let scale = if std > 0.0 && std.is_finite() { std } else { filter.mean()[i].abs().max(1.0) };
+                work.jump_offsets[(i, i)] = PROBE * scale;
+            }
+        }
+        filter.observation_differences(&work.jump_offsets, &mut work.jump_effects)?;
+        work.jump_open.fill(false);
+        for &r in &work.rows {
+            if !failing(r, work.ratios[r]) || self.channels[r].refuted {
+                continue;
+            }
+            let row = work.jump_effects.row(r);
+            let largest = row.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+            for (open, effect) in work.jump_open.iter_mut().zip(row.iter()) {
+                *open |= largest > 0.0 && effect.abs() > SEEN * largest;
+            }
+        }
+        Ok(work.jump_open.contains(&true))
+    }
+
     /// A jump of row `r` was confirmed within the last
     /// [`SupervisorSettings::change_memory`](crate::SupervisorSettings::change_memory)
     /// samples, this one's review included.
@@ -249,7 +301,7 @@ impl Supervisor {
             }
             filter.restore(&self.work.before)?;
             let rest = filter
-                .add_process_noise(factor, &self.jump_states)
+                .add_process_noise(factor, &self.work.jump_open)
                 .and_then(|()| filter.update(&self.work.z_hypothesis).map(|_| ()));
             self.work.z_hypothesis.fill(f64::NAN);
             self.work.z_hypothesis[r] = self.work.z_gated[r];
