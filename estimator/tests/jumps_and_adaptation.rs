@@ -3,8 +3,8 @@
 //! kind, on linear-Gaussian models where the truth is the model:
 //!
 //! * a true jump of the state is never rejected, whether one row sees it or
-//!   several agree on it, and it is followed; it opens only the states its
-//!   failing rows see;
+//!   several agree on it, and it is followed; a local jump opens only the
+//!   states its failing rows see;
 //! * a spike that the other rows contradict is rejected at its sample;
 //! * a spike no other row can contradict is taken as a jump, and its review
 //!   at the next sample retracts it: it counts as rejected, and the belief is
@@ -114,24 +114,31 @@ fn a_true_jump_several_rows_agree_on_is_never_rejected_and_is_followed() {
 }
 
 #[test]
-fn a_jump_opens_only_the_states_its_failing_rows_see() {
-    // Rows 0 and 1 fail on the first state's jump; the second state, seen by
-    // row 2 alone, which passes, keeps its σ: opened, row 2 would take it over.
+fn a_local_jump_opens_only_the_states_its_failing_rows_see() {
+    // Rows 0 and 1 fail on the first state's jump; with local jumps the second
+    // state, seen by row 2 alone, which passes, keeps its σ; without, it is
+    // opened too, and row 2 alone sets it.
     let case = redundant(300, 3, Some(150));
     for kind in FilterKind::ALL {
-        let mut f = filter_for(kind, case.model.clone(), case.q.clone(), case.r.clone(), &case.prior);
-        let mut s = Supervisor::new(adaptive(), 3).unwrap();
-        let (mut before, mut jumped_before) = (f64::NAN, f64::NAN);
-        for (k, z) in case.measurements.iter().enumerate().take(151) {
-            let outcome = step(f.as_mut(), &mut s, &[0.0], &[0.0], z);
-            if k == 149 {
-                (before, jumped_before) = (f.variance(1), f.variance(0));
-            }
-            if k == 150 {
-                assert!(outcome.jump > 0.0, "{kind}: {outcome:?}");
-                let (after, jumped) = (f.variance(1), f.variance(0));
-                assert!((after / before - 1.0).abs() < 0.01, "{kind}: σ² of the unseen state {before} → {after}");
-                assert!(jumped > 1.5 * jumped_before, "{kind}: the jumped state's σ² {jumped_before} → {jumped}");
+        for local_jumps in [true, false] {
+            let mut f = filter_for(kind, case.model.clone(), case.q.clone(), case.r.clone(), &case.prior);
+            let mut s = Supervisor::new(SupervisorSettings { local_jumps, ..adaptive() }, 3).unwrap();
+            let (mut before, mut jumped_before) = (f64::NAN, f64::NAN);
+            for (k, z) in case.measurements.iter().enumerate().take(151) {
+                let outcome = step(f.as_mut(), &mut s, &[0.0], &[0.0], z);
+                if k == 149 {
+                    (before, jumped_before) = (f.variance(1), f.variance(0));
+                }
+                if k == 150 {
+                    assert!(outcome.jump > 0.0, "{kind}: {outcome:?}");
+                    let (after, jumped) = (f.variance(1), f.variance(0));
+                    let kept = (after / before - 1.0).abs() < 0.01;
+                    assert_eq!(
+                        kept, local_jumps,
+                        "{kind} local {local_jumps}: the unseen state's σ² {before} → {after}"
+                    );
+                    assert!(jumped > 1.5 * jumped_before, "{kind}: the jumped state's σ² {jumped_before} → {jumped}");
+                }
             }
         }
     }

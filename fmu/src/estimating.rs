@@ -604,10 +604,12 @@ pub fn build_supervisor(
         adaptation_window: count("adaptation_window")? as usize,
         min_process_noise_scale: p.get("min_process_noise_scale")?,
         max_process_noise_scale: p.get("max_process_noise_scale")?,
-        // Not parameters: each FMU's own (S4 leaves an inconsistent telegram out, the others name it).
+        // Not parameters: each FMU's own (S4 leaves an inconsistent telegram out, the others name it;
+        // S2 and S3, whose unknown inputs are each a wheel's own force, open only those a failing row sees).
         wiring_sigmas: descriptor.supervision.wiring_sigmas,
         wiring_leaves_out: descriptor.supervision.wiring_leaves_out,
         wiring_signatures: descriptor.supervision.wiring_signatures,
+        local_jumps: descriptor.supervision.local_jumps,
         ..SupervisorSettings::default()
     };
     let mut supervisor = Supervisor::new(settings, descriptor.measurement_dim())

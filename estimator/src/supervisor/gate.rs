@@ -98,7 +98,7 @@ pub(super) struct Workspace {
     pub unexplained: Vec<bool>,
     /// `z` of the fault hypothesis.
     pub z_hypothesis: Vec<f64>,
-    /// The jump states the failing rows see, the states a jump opens (`jump.rs`).
+    /// The jump states a jump opens (`jump.rs`).
     pub jump_open: Vec<bool>,
     /// Scratch of their selection: a probe offset per state (`n × n`) and
     /// what it does to each row (`m × n`). Sized at the first jump.

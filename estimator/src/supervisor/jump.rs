@@ -8,7 +8,7 @@
 //!
 //! * **Explained by a jump.** Adding process noise `c·Q` to `P`, in the
 //!   states of the unknown inputs ([`Supervisor::with_jump_states`]; all by
-//!   default) that a failing row sees, raises the innovation variance of row `i` by `c·Gᵢ`,
+//!   default; with `local_jumps`, only those a failing row sees), raises the innovation variance of row `i` by `c·Gᵢ`,
 //!   `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found from one probe update with `P + Q`. A failing row is explained when some
 //!   `c ≤ implausible_sigmas²` brings its innovation to one σ; a row no jump
 //!   of the unknown inputs reaches (`Gᵢ ≈ 0`: in S1 the acceleration of the
@@ -100,7 +100,7 @@ impl Supervisor {
     ) -> Result<bool, FilterError> {
         let limit = self.settings.implausible_sigmas * self.settings.implausible_sigmas;
         filter.restore(&self.work.before)?;
-        if !self.open_seen_jump_states(filter, &failing)? {
+        if !self.open_jump_states(filter, &failing)? {
             return Ok(false);
         }
         // The probe: G from the innovation variances with P + Q.
@@ -235,14 +235,11 @@ impl Supervisor {
         Ok(true)
     }
 
-    /// Marks in `work.jump_open` the jump states that a failing row (not
-    /// refuted) sees, its observation moving with them at the belief before
-    /// the gate; false if there are none. A jump explains the rows that fail,
-    /// so it opens what they see and nothing else: a jump state no failing row
-    /// sees, opened, is taken by the rows that pass for as long as the change
-    /// rings (S2's weld on one wheel opened the other wheels' forces too, and
-    /// through them the car's bounce was some 100 N off for half a second).
-    fn open_seen_jump_states(
+    /// Marks in `work.jump_open` the jump states a jump opens: every one, or,
+    /// with [`SupervisorSettings::local_jumps`](crate::SupervisorSettings::local_jumps),
+    /// those a failing row (not refuted) sees, its observation moving with
+    /// them at the belief before the gate. False if none.
+    fn open_jump_states(
         &mut self,
         filter: &mut dyn StateEstimator,
         failing: &impl Fn(usize, f64) -> bool,
@@ -251,6 +248,14 @@ impl Supervisor {
         let work = &mut self.work;
         if work.jump_open.len() != n {
             work.jump_open = vec![false; n];
+        }
+        if !self.settings.local_jumps {
+            for (i, open) in work.jump_open.iter_mut().enumerate() {
+                *open = self.jump_states.get(i).copied().unwrap_or(true);
+            }
+            return Ok(true);
+        }
+        if work.jump_offsets.nrows() != n {
             work.jump_offsets = DMatrix::zeros(n, n);
             work.jump_effects = DMatrix::zeros(m, n);
         }

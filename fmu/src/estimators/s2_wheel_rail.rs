@@ -200,6 +200,7 @@ pub(super) fn descriptor() -> Descriptor {
             min_process_noise_scale: 1.0,
             wiring_sigmas: 8.0,
             show_single_row_jumps: true,
+            local_jumps: true,
             ..SupervisorSettings::default()
         },
         derive: no_derived_outputs,

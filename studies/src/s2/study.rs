@@ -269,6 +269,7 @@ pub fn supervised_filter(
     let settings = estimator::SupervisorSettings {
         min_process_noise_scale: 1.0,
         show_single_row_jumps: true,
+        local_jumps: true,
         ..estimator::SupervisorSettings::default()
     };
     let supervisor = estimator::Supervisor::new(settings, 7)

@@ -321,6 +321,7 @@ pub fn run_filter(
     let settings = SupervisorSettings {
         min_process_noise_scale: 1.0,
         show_single_row_jumps: true,
+        local_jumps: true,
         ..SupervisorSettings::default()
     };
     let supervisor = Supervisor::new(settings, 28)
