@@ -156,6 +156,39 @@ fn a_sign_flipped_for_half_a_second_costs_what_the_same_samples_missing_cost() {
     }
 }
 
+/// z₁ read ×9.81 for a quarter of a second: no jump of the load explains its
+/// failures, so it triggers a re-acquisition, which follows the scaled channel.
+/// While z₁ fails the rival's gate too, its samples do not count for either
+/// belief (the rival stands for z₁ being off): scored, they confirmed the
+/// re-acquisition within three samples, and the clean z₁ after the episode
+/// was rejected against the dragged state for most of a second.
+#[test]
+fn a_unit_error_on_the_channel_no_jump_explains_costs_what_the_same_samples_missing_cost() {
+    const LENGTH: usize = 50;
+    let scaled = |zs: &mut [Vec<f64>]| {
+        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
+            z[0] *= 9.81;
+        }
+    };
+    let missing = |zs: &mut [Vec<f64>]| {
+        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
+            z[0] = f64::NAN;
+        }
+    };
+    for kind in FilterKind::ALL {
+        let clean = run(kind, SupervisorSettings::default(), |_| {});
+        let ratio = |r: &Run| worst_ratio(&r.estimate, &clean.estimate, &clean.truth, BURST_AT + LENGTH, 0.1);
+        let revised = run(kind, SupervisorSettings::default(), scaled);
+        let without = ratio(&run(kind, SupervisorSettings::default(), missing));
+        let with = ratio(&revised);
+        assert!(
+            with <= 1.2 * without.max(1.0),
+            "{kind}: {with}× the clean RMSE after 0.1 s, {without}× with the samples missing"
+        );
+        assert!(revised.healthy, "{kind}: healthy at the end");
+    }
+}
+
 /// The same flip held for 1.5 s (300 samples): caught each time, z₂ is
 /// released and refuted again several times, and what each release drags
 /// in before its rival wins adds up; the filter ends inconsistent and the

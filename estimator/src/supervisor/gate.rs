@@ -122,6 +122,8 @@ pub(super) struct Workspace {
     /// The robust log-likelihoods of this sample's first pass: the rival's and the filter's own.
     pub rival_score: f64,
     pub main_score: f64,
+    /// The row neither score counts at this sample (`rival.rs`).
+    pub unscored: Option<usize>,
     /// The mean the update ends with (what a healthy sample teaches `restart.rs`).
     pub posterior: Vec<f64>,
     /// Its variance per state.
@@ -159,6 +161,7 @@ impl Workspace {
             rival_entry: WindowEntry::default(),
             rival_score: 0.0,
             main_score: 0.0,
+            unscored: None,
             posterior: Vec::new(),
             posterior_variance: Vec::new(),
         }
@@ -241,6 +244,7 @@ impl Supervisor {
             self.restart(filter)?;
         }
         self.probe_inconsistent(filter)?;
+        self.work.unscored = self.rival.disputed();
         let rival = !self.pending.restarted && self.rival.active && self.settings.revise && self.step_rival(filter)?;
         if self.rival.active && !rival {
             // A rival that cannot be predicted or updated is dropped.
@@ -456,7 +460,7 @@ impl Supervisor {
             self.pending.worst_ratio = worst;
             let clip = row_threshold.min(1e6);
             let mut clipped = 0.0;
-            let disputed = self.rival.disputed();
+            let disputed = work.unscored;
             work.main_score =
                 super::rival::score(innovation, self.thresholds.adaptation_clip, clip, disputed, &mut clipped);
             self.pending.clipped_ratios = clipped;

@@ -23,6 +23,18 @@
 //! never re-acquires itself and there is one at a time: the belief kept
 //! aside is the one from before the episode.
 //!
+//! The rival stands for the trigger's sensor having been off. Where that
+//! row alone fails the rival's gate, the sensor is still off under the
+//! rival's hypothesis, and its sample says nothing about which belief is
+//! right: it is scored for neither, and the other rows decide. Scored, it
+//! favoured the re-acquired belief, which follows the faulty channel, by
+//! up to `c/2` nats a sample (S1's z₁ read ×9.81: the re-acquisition was
+//! kept within three samples, and the clean z₁ after the episode failed
+//! the gate against the state it had dragged for most of a second). Where
+//! other rows fail the rival's gate too, the rival's hypothesis is itself
+//! in doubt and every row counts (S4's swapped telegrams were recovered
+//! less often without that rule).
+//!
 //! * **The rival wins** (the garbage was in): the filter takes the rival's
 //!   belief at this sample, the rows are those of its update, the channel
 //!   that triggered the re-acquisition is suspended (it was the sensor: it
@@ -310,6 +322,20 @@ impl Supervisor {
             return Ok(false);
         }
         let innovation = filter.innovation();
+        // A re-acquisition's trigger is not scored where it alone fails the
+        // rival's gate (see the module documentation).
+        let trigger = self.rival.trigger;
+        let fails = |r: usize| innovation.residual()[r].powi(2) / innovation.covariance()[(r, r)] > row;
+        let unscored = if self.rival.active
+            && self.rival.hypothesis == Hypothesis::Reacquisition
+            && innovation.rows().contains(&trigger)
+            && innovation.rows().iter().all(|&r| fails(r) == (r == trigger))
+        {
+            work.unscored = Some(trigger);
+            Some(trigger)
+        } else {
+            unscored
+        };
         let mut clipped = 0.0;
         work.rival_score = score(innovation, clip, gate_clip, unscored, &mut clipped);
         work.rival_entry = WindowEntry { clipped_ratios: clipped, rows: innovation.rows_used() };
