@@ -104,7 +104,9 @@ def win64(tmp_path_factory) -> Iterator[Platform]:
     subprocess.run(["wineboot", "--init"], env=env, check=True, capture_output=True, timeout=300)
     # One wineserver for the whole session: by default it exits a few seconds after its last
     # client, and a wine started while it is exiting may fail before running anything (once
-    # on CI: exit status 1, nothing on stderr).
+    # on CI: exit status 1, nothing on stderr). wineboot's own must be gone first: a second
+    # server refuses to start (status 2).
+    subprocess.run(["wineserver", "--wait"], env=env, check=True, timeout=60)
     subprocess.run(["wineserver", "--persistent"], env=env, check=True, timeout=60)
     yield Platform("win64", ["wine", str(master)], env, dict(os.environ))
     subprocess.run(["wineserver", "--kill"], env=env, timeout=60)

@@ -8,8 +8,9 @@
 //!
 //! * **Explained by a jump.** Adding process noise `c·Q` to `P`, in the
 //!   states of the unknown inputs ([`Supervisor::with_jump_states`]; all by
-//!   default; with `local_jumps`, only those a failing row sees), raises the innovation variance of row `i` by `c·Gᵢ`,
-//!   `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found from one probe update with `P + Q`. A failing row is explained when some
+//!   default; with `local_jumps`, only those a failing row sees), raises the
+//!   innovation variance of row `i` by `c·Gᵢ`, `Gᵢ = (H·Q·Hᵀ)ᵢᵢ`, found
+//!   from one probe update with `P + Q`. A failing row is explained when some
 //!   `c ≤ implausible_sigmas²` brings its innovation to one σ; a row no jump
 //!   of the unknown inputs reaches (`Gᵢ ≈ 0`: in S1 the acceleration of the
 //!   mass the load does not act on) is a fault, and rejected. Only the
