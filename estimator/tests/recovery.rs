@@ -25,6 +25,16 @@ struct Run {
     restarts: u64,
 }
 
+/// Replaces each sample of `channel`, from `BURST_AT` for `length` samples, by
+/// `fault` of it.
+fn over_episode(channel: usize, length: usize, fault: fn(f64) -> f64) -> impl Fn(&mut [Vec<f64>]) + Copy {
+    move |zs| {
+        for z in &mut zs[BURST_AT..BURST_AT + length] {
+            z[channel] = fault(z[channel]);
+        }
+    }
+}
+
 /// Adds to `channel`, from `BURST_AT` for `length` samples, `size` times its
 /// RMS, alternating in sign.
 fn alternating_burst(zs: &mut [Vec<f64>], channel: usize, length: usize, size: f64) {
@@ -130,16 +140,8 @@ fn without_revision_the_burst_on_z1_stays_in_the_load_estimate() {
 #[test]
 fn a_sign_flipped_for_half_a_second_costs_what_the_same_samples_missing_cost() {
     const LENGTH: usize = 100;
-    let flipped = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
-            z[1] = -z[1];
-        }
-    };
-    let missing = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
-            z[1] = f64::NAN;
-        }
-    };
+    let flipped = over_episode(1, LENGTH, |x| -x);
+    let missing = over_episode(1, LENGTH, |_| f64::NAN);
     for kind in FilterKind::ALL {
         let clean = run(kind, SupervisorSettings::default(), |_| {});
         let ratio = |r: &Run| worst_ratio(&r.estimate, &clean.estimate, &clean.truth, BURST_AT + LENGTH, 0.1);
@@ -165,16 +167,8 @@ fn a_sign_flipped_for_half_a_second_costs_what_the_same_samples_missing_cost() {
 #[test]
 fn a_unit_error_on_the_channel_no_jump_explains_costs_what_the_same_samples_missing_cost() {
     const LENGTH: usize = 50;
-    let scaled = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
-            z[0] *= 9.81;
-        }
-    };
-    let missing = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
-            z[0] = f64::NAN;
-        }
-    };
+    let scaled = over_episode(0, LENGTH, |x| 9.81 * x);
+    let missing = over_episode(0, LENGTH, |_| f64::NAN);
     for kind in FilterKind::ALL {
         let clean = run(kind, SupervisorSettings::default(), |_| {});
         let ratio = |r: &Run| worst_ratio(&r.estimate, &clean.estimate, &clean.truth, BURST_AT + LENGTH, 0.1);
@@ -200,11 +194,7 @@ fn a_unit_error_on_the_channel_no_jump_explains_costs_what_the_same_samples_miss
 /// than the filter left alone.
 #[test]
 fn an_inconsistent_filter_is_challenged_and_restarts_closer_to_the_truth() {
-    let flipped = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + 300] {
-            z[1] = -z[1];
-        }
-    };
+    let flipped = over_episode(1, 300, |x| -x);
     let end = |r: &Run| rmse(&r.estimate[STEPS - 200..], &r.truth[STEPS - 200..]);
     for kind in FilterKind::ALL {
         let challenged = run(kind, SupervisorSettings::default(), flipped);
@@ -267,11 +257,7 @@ fn a_fault_held_for_many_samples_is_undone_by_the_other_channel_and_the_load_ret
             z[1] += 30.0 * rms;
         }
     };
-    let units = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + 21] {
-            z[1] *= 9.81;
-        }
-    };
+    let units = over_episode(1, 21, |x| 9.81 * x);
     for kind in FilterKind::ALL {
         let clean = run(kind, SupervisorSettings::default(), |_| {});
         for (fault, revised) in [
@@ -297,11 +283,7 @@ fn a_fault_held_for_many_samples_is_undone_by_the_other_channel_and_the_load_ret
 fn a_burst_that_a_reacquisition_took_in_costs_what_the_same_samples_missing_cost() {
     const LENGTH: usize = 12;
     let burst = |zs: &mut [Vec<f64>]| alternating_burst(zs, 1, LENGTH, 2614.0);
-    let missing = |zs: &mut [Vec<f64>]| {
-        for z in &mut zs[BURST_AT..BURST_AT + LENGTH] {
-            z[1] = f64::NAN;
-        }
-    };
+    let missing = over_episode(1, LENGTH, |_| f64::NAN);
     for kind in FilterKind::ALL {
         let clean = run(kind, SupervisorSettings::default(), |_| {});
         let missing = run(kind, SupervisorSettings::default(), missing);
