@@ -44,13 +44,12 @@
 //! it spends nothing of the inflation budget.
 
 use super::outcome::RowOutcome;
+use super::signature::{state_scale, PROBE};
 use super::Supervisor;
 use crate::error::FilterError;
 use crate::filter::{FilterKind, Snapshot, StateEstimator};
 use nalgebra::DMatrix;
 
-/// A jump state's probe offset, in its σ.
-const PROBE: f64 = 1e-3;
 /// A row sees a jump state whose probe moves it by more than this share of
 /// what the row's most visible jump state's probe does (not rounding).
 const SEEN: f64 = 1e-6;
@@ -263,9 +262,7 @@ impl Supervisor {
         work.jump_offsets.fill(0.0);
         for i in 0..n {
             if self.jump_states.get(i).copied().unwrap_or(true) {
-                let std = filter.variance(i).max(0.0).sqrt();
-                let scale = if std > 0.0 && std.is_finite() { std } else { filter.mean()[i].abs().max(1.0) };
-                work.jump_offsets[(i, i)] = PROBE * scale;
+                work.jump_offsets[(i, i)] = PROBE * state_scale(filter, i);
             }
         }
         filter.observation_differences(&work.jump_offsets, &mut work.jump_effects)?;

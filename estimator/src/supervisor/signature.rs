@@ -50,9 +50,20 @@ use crate::error::FilterError;
 use crate::filter::{Innovation, StateEstimator};
 use crate::linalg::{cholesky_in_place, mul_to, solve_lower, solve_lower_transposed, tr_mul_add};
 
-/// The offset of a difference, relative to each state's σ: small against
-/// the models' kinks, large against rounding.
-const PROBE: f64 = 1e-3;
+/// The offset of a difference, relative to each state's scale
+/// ([`state_scale`]): small against the models' kinks, large against rounding.
+pub(super) const PROBE: f64 = 1e-3;
+
+/// State `i`'s scale for a difference of the model: its σ, or, where the
+/// filter is certain of it (a state no noise reaches), its size.
+pub(super) fn state_scale(filter: &dyn StateEstimator, i: usize) -> f64 {
+    let std = filter.variance(i).max(0.0).sqrt();
+    if std > 0.0 && std.is_finite() {
+        std
+    } else {
+        filter.mean()[i].abs().max(1.0)
+    }
+}
 
 /// Regressors per channel: its prediction about its mean (a scale), and 1 (an offset).
 const KINDS: usize = 2;
@@ -261,13 +272,9 @@ impl Supervisor {
             work.sizes = DVector::zeros(KINDS * m);
             work.scratch = DVector::zeros(m);
         }
-        // Each state's scale: its σ, or, where the filter is certain of it
-        // (a state no noise reaches), its size.
         let sigma: &mut DVector<f64> = &mut work.sigma;
-        let mean = filter.mean();
         for i in 0..n {
-            let std = filter.variance(i).max(0.0).sqrt();
-            sigma[i] = if std > 0.0 && std.is_finite() { std } else { mean[i].abs().max(1.0) };
+            sigma[i] = state_scale(filter, i);
         }
         // The prediction: each effect column scaled to a small offset, F·δ, scaled back.
         work.effect.copy_from(&self.signatures.effect);
