@@ -154,9 +154,9 @@ impl FilterVisitor for Bench<'_> {
 /// the fixed-lag smoother's lag in samples (0: none).
 fn supervised_variants() -> [(&'static str, SupervisorSettings, usize); 5] {
     let default = SupervisorSettings::default();
-    // S3's wiring checks: the channels' own scores and their fault signatures.
-    let signatures =
-        SupervisorSettings { wiring_sigmas: 8.0, wiring_leaves_out: true, wiring_signatures: true, ..default };
+    // S2's and S3's wiring checks: the channels' own scores and their fault
+    // signatures, the likeliest channel named and kept.
+    let signatures = SupervisorSettings { wiring_sigmas: 8.0, wiring_signatures: true, ..default };
     [
         ("gate", default.fixed(), 0),
         ("jumps", default.adaptive(0), 0),

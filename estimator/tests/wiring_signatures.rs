@@ -54,14 +54,22 @@ fn chain() -> (LinearGaussian, DMatrix<f64>, DMatrix<f64>, Vec<Vec<f64>>) {
     (model, q, r, zs)
 }
 
+/// What a run shows per sample: the rows' statuses as a user reads them, the
+/// filter's health and its mean.
+struct Run {
+    statuses: Vec<Vec<RowOutcome>>,
+    healthy: Vec<bool>,
+    means: Vec<Vec<f64>>,
+}
+
 /// Runs `kind` with `settings` over the chain, `a₁` flipped from `FROM` on
-/// when `flipped`; returns the rows' outcomes per sample.
-fn run(settings: SupervisorSettings, kind: FilterKind, flipped: bool) -> Vec<Vec<RowOutcome>> {
+/// when `flipped`.
+fn run(settings: SupervisorSettings, kind: FilterKind, flipped: bool) -> Run {
     let (model, q, r, zs) = chain();
     let prior = Gaussian { mean: DVector::zeros(5), covariance: DMatrix::identity(5, 5) };
     let mut filter = build_filter(kind, model, Noise::new(q, r).unwrap(), &prior, Default::default()).unwrap();
     let mut supervisor = Supervisor::new(settings, 2).unwrap();
-    let mut rows = Vec::with_capacity(STEPS);
+    let mut shown = Run { statuses: Vec::new(), healthy: Vec::new(), means: Vec::new() };
     for (k, z) in zs.iter().enumerate() {
         let mut z = z.clone();
         if flipped && k >= FROM {
@@ -70,10 +78,13 @@ fn run(settings: SupervisorSettings, kind: FilterKind, flipped: bool) -> Vec<Vec
         if k > 0 {
             filter.predict(&[0.0], DT).unwrap();
         }
-        rows.push(supervisor.gate(filter.as_mut(), &z).unwrap().rows.clone());
+        supervisor.gate(filter.as_mut(), &z).unwrap();
         supervisor.commit(|_| {});
+        shown.statuses.push(supervisor.statuses().collect());
+        shown.healthy.push(supervisor.healthy());
+        shown.means.push(filter.mean().iter().copied().collect());
     }
-    rows
+    shown
 }
 
 fn signatures() -> SupervisorSettings {
@@ -92,7 +103,7 @@ fn first_inconsistent(rows: &[Vec<RowOutcome>], channel: usize) -> Option<usize>
 #[test]
 fn on_healthy_data_no_signature_names_a_channel() {
     for kind in [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::Ekf] {
-        let rows = run(signatures(), kind, false);
+        let rows = run(signatures(), kind, false).statuses;
         for channel in 0..2 {
             assert_eq!(first_inconsistent(&rows, channel), None, "{kind}: channel {channel} named on healthy data");
         }
@@ -102,9 +113,42 @@ fn on_healthy_data_no_signature_names_a_channel() {
 #[test]
 fn a_flipped_channel_that_its_unknown_input_follows_is_named_by_its_signature_within_two_seconds() {
     for kind in [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::Ekf] {
-        let rows = run(signatures(), kind, true);
+        let rows = run(signatures(), kind, true).statuses;
         let named = first_inconsistent(&rows, 0).unwrap_or_else(|| panic!("{kind}: the flipped a₁ is never named"));
         assert!(named >= FROM && named - FROM <= (2.0 / DT) as usize, "{kind}: named {} samples after", named - FROM);
         assert_eq!(first_inconsistent(&rows, 1), None, "{kind}: the right a₂ is blamed");
+    }
+}
+
+fn named_by_signatures() -> SupervisorSettings {
+    SupervisorSettings { wiring_sigmas: 8.0, wiring_signatures: true, ..SupervisorSettings::default() }
+}
+
+#[test]
+fn named_and_kept_a_flipped_channel_is_the_one_named_and_the_filter_is_unhealthy_within_two_seconds() {
+    for kind in [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::Ekf] {
+        let shown = run(named_by_signatures(), kind, true);
+        let named =
+            first_inconsistent(&shown.statuses, 0).unwrap_or_else(|| panic!("{kind}: the flipped a₁ is never named"));
+        assert!(named >= FROM && named - FROM <= (2.0 / DT) as usize, "{kind}: named {} samples after", named - FROM);
+        assert_eq!(first_inconsistent(&shown.statuses, 1), None, "{kind}: the right a₂ is blamed");
+        let within = FROM..FROM + (2.0 / DT) as usize;
+        assert!(shown.healthy[within].iter().any(|&h| !h), "{kind}: healthy throughout with a₁ flipped");
+        let clean = run(named_by_signatures(), kind, false);
+        assert!(
+            clean.statuses.iter().flatten().all(|&s| s != RowOutcome::Inconsistent),
+            "{kind}: a clean channel named"
+        );
+        assert!(clean.healthy[FROM..].iter().all(|&h| h), "{kind}: unhealthy on clean data");
+    }
+}
+
+#[test]
+fn named_and_kept_the_signatures_change_no_estimate() {
+    for kind in [FilterKind::Ckf, FilterKind::SrCkf, FilterKind::Ekf] {
+        let with = run(named_by_signatures(), kind, true);
+        let without = run(SupervisorSettings { wiring_signatures: false, ..named_by_signatures() }, kind, true);
+        let bits = |means: &[Vec<f64>]| means.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&with.means), bits(&without.means), "{kind}: the signatures moved the estimate");
     }
 }

@@ -362,7 +362,7 @@ impl Estimating {
                 Event::Wiring { channel, inconsistent: true, left_out: false, scale, offset, time } => (
                     Fmi2Status::Warning,
                     "logStatusWarning",
-                    format!("the innovations of input {} disagree with the other inputs from t = {time} s: {}; either its wiring is wrong, or that of an input whose unknown input follows it (the data cannot say which), and the filter is inconsistent (filter_healthy is false) until they agree; check the wiring of {} and of the inputs beside it", input(channel), crate::wiring_cause::likely_cause(scale, offset, unit(channel)), input(channel)),
+                    format!("the innovations of input {} disagree with the other inputs from t = {time} s: {}; its wiring is likely wrong, or that of an input beside it whose mistake shows in it; its status is 5 (inconsistent) where the FMU names only the likeliest input, it stays in the updates, and the filter is inconsistent (filter_healthy is false) until they agree; check the wiring of {} and of the inputs beside it", input(channel), crate::wiring_cause::likely_cause(scale, offset, unit(channel)), input(channel)),
                 ),
                 Event::Wiring { channel, inconsistent: false, left_out: true, time, .. } => (
                     Fmi2Status::Ok,

@@ -202,6 +202,8 @@ pub struct Estimation {
     /// apart from the supervisor's pending outcome, which a feedthrough read
     /// or a failed update overwrites and an FMU state does not hold.
     committed_statuses: Vec<RowOutcome>,
+    /// The statuses a read before the commit shows.
+    read_statuses: Vec<RowOutcome>,
     /// The smoothed estimate of the last read, when the instance smooths.
     smoothed: Option<SmoothedCopy>,
 }
@@ -278,6 +280,7 @@ impl Estimation {
             measured: false,
             faulty: vec![false; m],
             committed_statuses: vec![RowOutcome::Missing; m],
+            read_statuses: vec![RowOutcome::Missing; m],
         })
     }
 
@@ -388,7 +391,7 @@ impl Estimation {
                 if let Err(error) = self.supervised.commit_preview(self.reader.as_ref(), &mut self.copy, z, time) {
                     return Err(self.failure(self.samples, error));
                 }
-                self.committed_statuses.copy_from_slice(&self.supervised.supervisor().pending().rows);
+                self.commit_statuses();
                 self.measured = true;
             } else {
                 self.update(z)?;
@@ -438,12 +441,20 @@ impl Estimation {
     fn update(&mut self, z: &[f64]) -> Result<(), StepFailure> {
         let time = self.current_sample();
         match self.supervised.update(z, time) {
-            Ok(outcome) => {
-                self.committed_statuses.copy_from_slice(&outcome.rows);
+            Ok(_) => {
+                self.commit_statuses();
                 self.measured = true;
                 Ok(())
             }
             Err(error) => Err(self.failure(self.samples, error)),
+        }
+    }
+
+    /// The statuses the outputs show from the update just committed.
+    fn commit_statuses(&mut self) {
+        let statuses = self.supervised.supervisor().statuses();
+        for (status, row) in self.committed_statuses.iter_mut().zip(statuses) {
+            *status = row;
         }
     }
 
@@ -485,6 +496,9 @@ impl Estimation {
                     for (c, flag) in self.faulty.iter_mut().enumerate() {
                         *flag = supervisor.faulty_with_pending(c);
                     }
+                    for (status, row) in self.read_statuses.iter_mut().zip(supervisor.statuses()) {
+                        *status = row;
+                    }
                     let rejected = supervisor.rejected_with_pending();
                     let healthy = supervisor.healthy_with_pending();
                     let process_noise_scale = supervisor.process_noise_scale();
@@ -494,7 +508,7 @@ impl Estimation {
                         skipped,
                         rejected,
                         faulty: &self.faulty,
-                        statuses: &supervisor.pending().rows,
+                        statuses: &self.read_statuses,
                         healthy,
                         process_noise_scale,
                         plausible: supervisor.outside(self.reader.as_ref()).is_none(),

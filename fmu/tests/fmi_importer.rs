@@ -781,12 +781,15 @@ fn outputs_equal_the_library_run_in_process(setup: &Setup) {
         }
         fmu.set_inputs(zk);
         nis = supervisor.gate(reference.as_mut(), zk).unwrap().nis;
-        let rows: Vec<i32> = supervisor.pending().rows.iter().map(|&row| estimators::status_value(row)).collect();
+        // As a read before the commit shows them: this sample's outcomes, the
+        // wiring verdicts of the last commit.
+        let rows: Vec<i32> = supervisor.statuses().map(estimators::status_value).collect();
         supervisor.commit(|_| {});
         supervisor.scale_process_noise_of(reference.as_mut()).unwrap();
         let expected = setup.expected_outputs(reference.as_ref(), nis);
         assert_eq!(bits(&[fmu.read()]), bits(&[expected]), "{model}: at sample {k}");
-        // Each input's status is the supervisor's outcome of its row.
+        // Each input's status is the supervisor's: its row's outcome, or
+        // inconsistent where its wiring is named and it is kept.
         let mut statuses = vec![0; rows.len()];
         Common::get_integer(&mut fmu.instance, &fmu.statuses, &mut statuses).expect("fmi2GetInteger");
         assert_eq!(statuses, rows, "{model}: the input statuses at sample {k}");

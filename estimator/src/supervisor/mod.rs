@@ -302,6 +302,20 @@ impl Supervisor {
         &self.pending
     }
 
+    /// Each row's status as a user reads it: its outcome at the last gate,
+    /// but `Inconsistent` where it was used and its channel's wiring is named
+    /// inconsistent and kept in the updates (`wiring.rs`; the verdict of the
+    /// last commit).
+    pub fn statuses(&self) -> impl Iterator<Item = RowOutcome> + '_ {
+        self.pending.rows.iter().zip(&self.channels).map(|(&row, channel)| {
+            if row == RowOutcome::Used && channel.inconsistent {
+                RowOutcome::Inconsistent
+            } else {
+                row
+            }
+        })
+    }
+
     /// Counts, for each refuted channel on probation, the samples in a row
     /// its probe (its row against the belief without it) passed the gate
     /// (`channel.rs`).

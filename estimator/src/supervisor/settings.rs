@@ -89,9 +89,12 @@ pub struct SupervisorSettings {
     /// Whether the wiring checks also follow each channel's fault through the
     /// filter's dynamics (`signature.rs`): where an unknown input follows a
     /// channel, its mistake shows only in the other channels, and only this
-    /// test sees it there. Meant with `wiring_leaves_out`. It costs two model
+    /// test sees it there. Without `wiring_leaves_out` only the likeliest
+    /// channel is named (its status inconsistent, still used) and the filter
+    /// is inconsistent while it is: no estimate changes. It costs two model
     /// transitions per channel and sample, and products with `P` (S3: the
-    /// supervised step more than twice as long). Off by default.
+    /// supervised step more than twice as long). Off by default; on in S2 and
+    /// S3.
     pub wiring_signatures: bool,
     /// Whether a jump opens only the jump states its failing rows see (their
     /// observation moves with them), not every one. Right where each unknown

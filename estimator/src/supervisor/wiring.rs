@@ -40,13 +40,21 @@
 //!   still predicted before each update and scored. A channel named by its
 //!   signature stays out for five windows (`WIRING_HOLD_WINDOWS`), then is tried
 //!   again.
-//! * **Named** (the default), where an unknown input follows a channel and
-//!   no signatures are followed (S2's and S3's axle boxes, each driven by its
-//!   own wheel force: a flipped one drags its force along, and the bogie frame's
-//!   channels show the mistake): every channel that passes is named in the
-//!   log and kept in the updates, and the filter is inconsistent
-//!   (`filter_healthy` false) while one is. Leaving out the worst would
-//!   blame the channel showing the mistake, not the one making it.
+//! * **Named** (the default), where an unknown input follows a channel (S2's
+//!   and S3's axle boxes, each driven by its own wheel force: a flipped one
+//!   drags its force along, and the bogie frame's channels show the mistake):
+//!   kept in the updates, and the filter is inconsistent (`filter_healthy`
+//!   false) while one is named. Leaving one out on a wrong verdict would
+//!   lose a right channel's data, so no estimate changes. Without signatures
+//!   every channel that passes is named in the log (the one wrong and the
+//!   ones showing it look alike). With them (S2, S3) one channel is named,
+//!   its status inconsistent ([`Supervisor::statuses`]): the likeliest,
+//!   which is the one whose own scores pass if any does (its innovations
+//!   show the mistake directly), else the one with the largest signature
+//!   score, named once it leads and has passed for a tenth of a window
+//!   (half a window for a signature alone: at a mistake's start every
+//!   neighbour's signature fits for a few samples). It stays named until its
+//!   score is below half the threshold; then the next may be named.
 //!
 //! The fit of `ν = (k − 1)·(ẑ − z̄) + b` behind the scores says what is
 //! likely wrong ([`Channel::wiring_fit`]).
@@ -163,6 +171,29 @@ impl Supervisor {
         // fit that names the likely cause describes the fault.
         let settled = fit_memory(memory) as u32;
         if !self.settings.wiring_leaves_out {
+            if wiring_signatures {
+                // The likeliest channel named (see the module documentation).
+                if self.channels.iter().any(|c| c.inconsistent) {
+                    return;
+                }
+                let scores = &self.work.wiring_scores;
+                let key = |c: usize, channel: &Channel| (channel.wiring_score() > threshold, scores[c]);
+                let worst = self
+                    .channels
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, channel)| channel.wiring_run > 0)
+                    .max_by(|a, b| key(a.0, a.1).partial_cmp(&key(b.0, b.1)).unwrap_or(std::cmp::Ordering::Equal))
+                    .filter(|(_, channel)| {
+                        let own = channel.wiring_score() > threshold;
+                        channel.wiring_run >= if own { settled } else { 5 * settled }
+                    })
+                    .map(|(c, _)| c);
+                if let Some(worst) = worst {
+                    self.channels[worst].inconsistent = true;
+                }
+                return;
+            }
             // Named, kept, and the filter inconsistent: every channel whose
             // innovations disagree may be the one wrong or the one showing it.
             for channel in &mut self.channels {

@@ -201,6 +201,9 @@ pub(super) fn descriptor() -> Descriptor {
             wiring_sigmas: 8.0,
             show_single_row_jumps: true,
             local_jumps: true,
+            // Each axle box drags its own force along: only the other
+            // channels show its wiring mistake, through the dynamics.
+            wiring_signatures: true,
             ..SupervisorSettings::default()
         },
         derive: no_derived_outputs,

@@ -63,8 +63,8 @@ struct Case {
 struct Finding {
     /// When a wrong input was first named inconsistent, from the mistake's start (s).
     named: Option<f64>,
-    /// A right input was named inconsistent.
-    blamed: bool,
+    /// The first right input named inconsistent, and when (s, from the mistake's start).
+    blamed: Option<(usize, f64)>,
     /// When the estimate first went beyond its σ (mean (e/σ)² of the scored estimates above 9), from the start (s).
     beyond: Option<f64>,
     /// `filter_healthy` was false within [`WITHIN`] of that.
@@ -121,8 +121,10 @@ fn judge(bench: &Bench, trace: &Trace, case: &Case, start: usize) -> Finding {
     let samples = trace.estimate.len();
     let named =
         (start..samples).find(|&k| case.channels.iter().any(|&c| trace.status[k][c] == INCONSISTENT)).map(seconds);
-    let blamed = (start..samples)
-        .any(|k| trace.status[k].iter().enumerate().any(|(c, &s)| s == INCONSISTENT && !case.channels.contains(&c)));
+    let blamed = (start..samples).find_map(|k| {
+        let right = |&(c, &s): &(usize, &i32)| s == INCONSISTENT && !case.channels.contains(&c);
+        trace.status[k].iter().enumerate().find(right).map(|(c, _)| (c, seconds(k)))
+    });
     let beyond = (start..samples).find(|&k| {
         let terms = trace.estimate[k].iter().zip(&bench.truth[k]).zip(&trace.std[k]);
         let mean_square = terms.map(|((e, t), s)| ((e - t) / s).powi(2)).sum::<f64>() / bench.targets.len() as f64;
@@ -191,7 +193,7 @@ pub fn study(bench: &Bench, args: &Args, start_time: f64) -> anyhow::Result<Stri
             of.len(),
             format!("{} of {}", times.len(), of.len()),
             median,
-            of.iter().filter(|f| f.blamed).count(),
+            of.iter().filter(|f| f.blamed.is_some()).count(),
             beyond,
             format!("{unhealthy} of {beyond}"),
             if failed > 0 { format!("  ({failed} failed)") } else { String::new() }
@@ -206,7 +208,7 @@ pub fn study(bench: &Bench, args: &Args, start_time: f64) -> anyhow::Result<Stri
                 case.mistake.name(),
                 names.join("+"),
                 finding.named.map_or("never".into(), |t| format!("at {t:.3} s")),
-                if finding.blamed { "another blamed, " } else { "" },
+                finding.blamed.map_or(String::new(), |(c, t)| format!("{} blamed at {t:.3} s, ", bench.inputs[c])),
                 finding.beyond.map_or("never".into(), |t| format!("at {t:.3} s")),
                 finding.unhealthy,
                 finding.failed.as_ref().map_or(String::new(), |why| format!(", failed: {why}"))
