@@ -452,10 +452,7 @@ impl Estimation {
 
     /// The statuses the outputs show from the update just committed.
     fn commit_statuses(&mut self) {
-        let statuses = self.supervised.supervisor().statuses();
-        for (status, row) in self.committed_statuses.iter_mut().zip(statuses) {
-            *status = row;
-        }
+        copy_statuses(self.supervised.supervisor(), &mut self.committed_statuses);
     }
 
     fn failure(&self, sample: u64, error: FilterError) -> StepFailure {
@@ -496,9 +493,7 @@ impl Estimation {
                     for (c, flag) in self.faulty.iter_mut().enumerate() {
                         *flag = supervisor.faulty_with_pending(c);
                     }
-                    for (status, row) in self.read_statuses.iter_mut().zip(supervisor.statuses()) {
-                        *status = row;
-                    }
+                    copy_statuses(supervisor, &mut self.read_statuses);
                     let rejected = supervisor.rejected_with_pending();
                     let healthy = supervisor.healthy_with_pending();
                     let process_noise_scale = supervisor.process_noise_scale();
@@ -619,5 +614,12 @@ impl SmoothedCopy {
 
     fn shown(&self) -> Smoothed<'_> {
         Smoothed { time: self.time, means: &self.means, variances: &self.variances }
+    }
+}
+
+/// The statuses `supervisor` shows now ([`Supervisor::statuses`]), into `into`.
+fn copy_statuses(supervisor: &Supervisor, into: &mut [RowOutcome]) {
+    for (status, row) in into.iter_mut().zip(supervisor.statuses()) {
+        *status = row;
     }
 }

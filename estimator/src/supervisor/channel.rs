@@ -106,6 +106,13 @@ impl Channel {
         value.to_bits() == self.last_value && self.repeats.saturating_add(1) >= stuck_after
     }
 
+    /// `row`, its outcome at the sample just counted, is a gross error: rejected,
+    /// its run of rejections shorter than a re-acquisition's trigger (a burst,
+    /// no wiring; a flipped telegram that fails the gate for good is).
+    pub(super) fn gross_error(&self, row: RowOutcome, reacquire_after: u32) -> bool {
+        row == RowOutcome::Rejected && self.rejected_run < reacquire_after
+    }
+
     /// Its gate failures have lasted long enough to ask for a re-acquisition,
     /// if this sample fails too, and it is not suspended.
     pub(super) fn may_trigger_reacquisition(&self, reacquire_after: u32) -> bool {

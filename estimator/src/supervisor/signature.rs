@@ -331,17 +331,12 @@ impl Supervisor {
         if !std::mem::take(&mut self.signature_work.ready) {
             return;
         }
-        // A sample with a gross error on some row (rejected, its run
-        // shorter than a re-acquisition's trigger) is no evidence of wiring:
+        // A sample with a gross error on some row is no evidence of wiring:
         // clipped, a burst would still pass for a signature (`wiring.rs`
         // leaves such rows out of a channel's own scores alike).
         let reacquire_after = self.settings.reacquire_after;
-        let gross = self
-            .pending
-            .rows
-            .iter()
-            .zip(&self.channels)
-            .any(|(&row, channel)| row == super::RowOutcome::Rejected && channel.rejected_run < reacquire_after);
+        let mut rows = self.pending.rows.iter().zip(&self.channels);
+        let gross = rows.any(|(&row, channel)| channel.gross_error(row, reacquire_after));
         // Where `S` cannot be factorised, the effects stay as predicted.
         self.learn_and_update_signatures(flux || gross);
         self.signatures.effect.copy_from(&self.signature_work.effect);

@@ -136,8 +136,7 @@ impl Supervisor {
             // rejections is as long as a re-acquisition's trigger: a burst of
             // gross errors is no wiring, a flipped telegram that fails the
             // gate for good is.
-            let gross = row == RowOutcome::Rejected && channel.rejected_run < reacquire_after;
-            if !flux && !gross {
+            if !flux && !channel.gross_error(row, reacquire_after) {
                 channel.learn_wiring(work.residuals[c], work.first_variances[c], self.z_offered[c], memory, clip);
                 if channel.inconsistent && channel.recent_score(memory) < threshold / 4.0 {
                     // The mistake has ended (its last tenth of a window is
@@ -177,20 +176,17 @@ impl Supervisor {
                     return;
                 }
                 let scores = &self.work.wiring_scores;
-                let key = |c: usize, channel: &Channel| (channel.wiring_score() > threshold, scores[c]);
-                let worst = self
-                    .channels
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, channel)| channel.wiring_run > 0)
-                    .max_by(|a, b| key(a.0, a.1).partial_cmp(&key(b.0, b.1)).unwrap_or(std::cmp::Ordering::Equal))
-                    .filter(|(_, channel)| {
-                        let own = channel.wiring_score() > threshold;
-                        channel.wiring_run >= if own { settled } else { 5 * settled }
-                    })
-                    .map(|(c, _)| c);
-                if let Some(worst) = worst {
-                    self.channels[worst].inconsistent = true;
+                let own_passes = |channel: &Channel| channel.wiring_score() > threshold;
+                let leader = self.channels.iter().enumerate().filter(|(_, channel)| channel.wiring_run > 0).max_by(
+                    |(a, first), (b, second)| {
+                        own_passes(first).cmp(&own_passes(second)).then(scores[*a].total_cmp(&scores[*b]))
+                    },
+                );
+                if let Some((c, channel)) = leader {
+                    let wait = if own_passes(channel) { settled } else { 5 * settled };
+                    if channel.wiring_run >= wait {
+                        self.channels[c].inconsistent = true;
+                    }
                 }
                 return;
             }
